@@ -1,0 +1,44 @@
+// As-rigid-as-possible: psi = mu ||F - R||^2 = mu sum (s_i - 1)^2, with R the rotation of the
+// polar decomposition (inversion-aware for planar elements). It has no volume term, so it agrees
+// with linear elasticity near rest only for lambda = 0; the lambda it is given is ignored and
+// lambda() returns 0. Kim & Eberle 2022, section 5; Smith et al. 2019, section 5.1.
+#pragma once
+
+#include "fem_cloth/core/materials/material.h"
+
+namespace fem_cloth {
+
+class Arap : public IsotropicModel<Arap> {
+ public:
+  static constexpr const char* kName = "arap";
+  static constexpr bool kNeedsPolar = true;
+  static constexpr bool kRotationInvariant = true;
+
+  explicit Arap(const Lame& lame) : IsotropicModel(Lame{lame.mu, 0.0}) {}
+
+
+  template <int D>
+  double psi(const DefGrad<D>& F, const DefGrad<D>& /*T*/) const {
+    return mu_ * (computeSvd<D>(F).sigma.array() - 1.0).square().sum();
+  }
+
+  /// P = 2 mu (F - R).
+  template <int D>
+  DefGrad<D> pk1(const DefGrad<D>& F, const DefGrad<D>& /*T*/) const {
+    return 2.0 * mu_ * (F - computeSvd<D>(F).rotation());
+  }
+
+  SigmaEigensystem sigmaEigensystem(const Eigen::Vector2d& s, bool cloth) const {
+    SigmaEigensystem e;
+    for (int i = 0; i < 2; ++i) {
+      e.dpsi[i] = 2.0 * mu_ * (s[i] - 1.0);
+      if (cloth) e.outOfPlane[i] = 2.0 * mu_ * (1.0 - 1.0 / std::max(s[i], kSigmaFloor));
+    }
+    e.d2psi = 2.0 * mu_ * Eigen::Matrix2d::Identity();
+    e.flip = 2.0 * mu_;
+    e.twist = 2.0 * mu_ * (1.0 - 2.0 / std::max(s.sum(), kSigmaFloor));
+    return e;
+  }
+};
+
+}  // namespace fem_cloth

@@ -1,0 +1,77 @@
+// Triangle meshes embedded in 2D (planar sheets, whose elements can invert) or 3D (cloth).
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/conventions.h"
+#include "fem_cloth/core/expected.h"
+
+namespace fem_cloth {
+
+using Triangle = std::array<Index, 3>;
+
+struct Mesh {
+  /// Embedding dimension: 2 (planar) or 3 (cloth).
+  int dim = 3;
+  /// Rest positions, flat: coordinate k of vertex i at dim*i + k (metres).
+  VectorX restPositions;
+  std::vector<Triangle> triangles;
+
+  Index numVertices() const { return static_cast<Index>(restPositions.size() / dim); }
+  Index numTriangles() const { return static_cast<Index>(triangles.size()); }
+  Index numDofs() const { return static_cast<Index>(restPositions.size()); }
+};
+
+/// Unique undirected edges (i < j), sorted.
+std::vector<std::array<Index, 2>> uniqueEdges(const std::vector<Triangle>& triangles);
+
+/// The plane a grid is laid out in (3D only): its first axis runs along `cols`, its second along
+/// `rows`.
+enum class GridPlane { XY, XZ, YZ };
+
+struct GridSpec {
+  int rows = 2;          ///< vertices along the second axis (>= 2)
+  int cols = 2;          ///< vertices along the first axis (>= 2)
+  double width = 1.0;    ///< extent along the first axis (m)
+  double height = 1.0;   ///< extent along the second axis (m)
+  int dim = 3;           ///< 2 = planar sheet, 3 = cloth
+  GridPlane plane = GridPlane::XY;
+  std::array<double, 3> origin{0.0, 0.0, 0.0};  ///< position of vertex 0 (m)
+};
+
+/// A rows x cols vertex grid split into 2 (rows-1)(cols-1) triangles. The diagonal of each quad
+/// alternates in a checkerboard pattern so the mesh has no preferred shear direction.
+/// Vertex (r, c) has index r*cols + c.
+Expected<Mesh> makeGrid(const GridSpec& spec);
+
+/// Reads `v` and `f` lines of a Wavefront OBJ file (other lines are ignored). Faces with more
+/// than three vertices are split into a fan; `f a/b/c` and negative (relative) indices are
+/// accepted. dim = 2 drops the z coordinate and requires it to be zero.
+Expected<Mesh> loadObj(const std::string& path, int dim = 3);
+/// Same, from OBJ text; `sourceName` is used in error messages.
+Expected<Mesh> parseObj(const std::string& text, int dim = 3, const std::string& sourceName = "obj");
+
+struct MeshValidation {
+  std::vector<std::string> errors;    ///< make the mesh unusable; each names the element
+  std::vector<std::string> warnings;  ///< worth knowing (non-manifold edges, unused vertices)
+  bool ok() const { return errors.empty(); }
+  /// All errors joined into one message (empty if ok).
+  std::string errorSummary(std::size_t maxListed = 5) const;
+};
+
+/// Shape quality of a triangle: 4 sqrt(3) area / (sum of squared edge lengths); 1 for an
+/// equilateral triangle, 0 for a degenerate one. Scale invariant.
+double triangleQuality(const Mesh& mesh, Index t);
+/// Area of triangle t at the given flat positions (m^2, unsigned; signed for planar meshes if
+/// `signedArea` is set: positive when counter-clockwise).
+double triangleArea(const Mesh& mesh, const VectorX& positions, Index t, bool signedArea = false);
+
+/// Checks the mesh. Errors: dim not 2 or 3, non-finite coordinates, vertex index out of range,
+/// a triangle repeating a vertex, repeated triangles, triangles whose quality is below
+/// `minQuality` (zero- or near-zero area). Warnings: non-manifold edges (shared by more than two
+/// triangles), vertices used by no triangle.
+MeshValidation validateMesh(const Mesh& mesh, double minQuality = 1e-4);
+
+}  // namespace fem_cloth

@@ -1,0 +1,140 @@
+#include "fem_cloth/core/membrane.h"
+
+#include <algorithm>
+#include <limits>
+
+namespace fem_cloth {
+
+namespace {
+
+template <int D, class Model>
+class MembraneTerm final : public EnergyTerm {
+ public:
+  MembraneTerm(std::shared_ptr<const Mesh> mesh, std::shared_ptr<const RestState> rest,
+               const Model& model)
+      : mesh_(std::move(mesh)), rest_(std::move(rest)), model_(model) {
+    const std::size_t m = mesh_->triangles.size();
+    energy_.resize(m);
+    inDomain_.resize(m);
+    gradient_.resize(m);
+    frames_.resize(m);
+    for (std::size_t t = 0; t < m; ++t) frames_[t] = rest_->frame<D>(static_cast<Index>(t));
+  }
+
+  std::string name() const override { return std::string("membrane/") + Model::kName; }
+
+  void appendStencils(std::vector<std::vector<Index>>* stencils) const override {
+    for (const Triangle& t : mesh_->triangles) stencils->push_back({t[0], t[1], t[2]});
+  }
+
+  void bindHessian(const SparseHessian& hessian) override {
+    const std::size_t m = mesh_->triangles.size();
+    offsets_.resize(m * 9 * D);
+    std::vector<int> local;
+    for (std::size_t t = 0; t < m; ++t) {
+      const Triangle& tri = mesh_->triangles[t];
+      hessian.stencilOffsets({tri[0], tri[1], tri[2]}, local);
+      std::copy(local.begin(), local.end(), offsets_.begin() + static_cast<long>(t * 9 * D));
+    }
+    hessian_.resize(m);
+  }
+
+  EvalResult evaluate(const VectorX& x, const EvalRequest& request) override {
+    const Index m = static_cast<Index>(mesh_->triangles.size());
+    const bool wantGradient = request.gradient != nullptr;
+    const bool wantHessian = request.hessian != nullptr;
+    const bool project = request.hessianMode == HessianMode::Projected;
+#pragma omp parallel for schedule(static)
+    for (Index t = 0; t < m; ++t) {
+      const DefGrad<D> F = deformationGradient<D>(*mesh_, *rest_, x, t);
+      const DefGrad<D>& T = frames_[t];
+      const double area = rest_->restArea[t];
+      inDomain_[t] = model_.template inDomain<D>(F);
+      if (!inDomain_[t]) continue;
+      if (request.energy) energy_[t] = area * model_.template psi<D>(F, T);
+      if (wantGradient) {
+        gradient_[t] = membraneElementGradient<D>(area, model_.template pk1<D>(F, T),
+                                                  rest_->shapeGradients[t]);
+      }
+      if (wantHessian) {
+        const StressHessian<D> H = project ? model_.template projectedHessian<D>(F, T)
+                                           : model_.template hessian<D>(F, T);
+        hessian_[t] = membraneElementHessian<D>(area, H, rest_->shapeGradients[t]);
+      }
+    }
+    // Fixed-order reduction: identical results for any thread count.
+    EvalResult result;
+    for (Index t = 0; t < m; ++t) {
+      if (!inDomain_[t]) {
+        if (result.inDomain) result.firstBadElement = t;
+        result.inDomain = false;
+        continue;
+      }
+      if (request.energy) result.energy += energy_[t];
+      const Triangle& tri = mesh_->triangles[t];
+      if (wantGradient) {
+        for (int a = 0; a < 3; ++a) {
+          request.gradient->template segment<D>(D * tri[a]) +=
+              gradient_[t].template segment<D>(D * a);
+        }
+      }
+      if (wantHessian) {
+        request.hessian->addElement<3 * D>(hessian_[t], &offsets_[static_cast<std::size_t>(t) * 9 * D]);
+      }
+    }
+    if (!result.inDomain) result.energy = kInfiniteEnergy;
+    return result;
+  }
+
+ private:
+  std::shared_ptr<const Mesh> mesh_;
+  std::shared_ptr<const RestState> rest_;
+  Model model_;
+  std::vector<DefGrad<D>, Eigen::aligned_allocator<DefGrad<D>>> frames_;
+  std::vector<double> energy_;
+  std::vector<char> inDomain_;
+  std::vector<ElementVector<D>, Eigen::aligned_allocator<ElementVector<D>>> gradient_;
+  std::vector<ElementMatrix<D>, Eigen::aligned_allocator<ElementMatrix<D>>> hessian_;
+  std::vector<int> offsets_;
+};
+
+template <int D>
+std::unique_ptr<EnergyTerm> makeForDim(std::shared_ptr<const Mesh> mesh,
+                                       std::shared_ptr<const RestState> rest,
+                                       const Material& material) {
+  return std::visit(
+      [&](const auto& model) -> std::unique_ptr<EnergyTerm> {
+        using Model = std::decay_t<decltype(model)>;
+        return std::make_unique<MembraneTerm<D, Model>>(mesh, rest, model);
+      },
+      material);
+}
+
+template <int D>
+double minAreaRatioFor(const Mesh& mesh, const RestState& rest, const VectorX& x, Index* where) {
+  double best = std::numeric_limits<double>::infinity();
+  for (Index t = 0; t < mesh.numTriangles(); ++t) {
+    const double J = areaRatio(deformationGradient<D>(mesh, rest, x, t));
+    if (J < best || (t == 0 && !(J == J))) {
+      best = J;
+      if (where != nullptr) *where = t;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+std::unique_ptr<EnergyTerm> makeMembraneTerm(std::shared_ptr<const Mesh> mesh,
+                                             std::shared_ptr<const RestState> rest,
+                                             const Material& material) {
+  if (mesh->dim == 2) return makeForDim<2>(std::move(mesh), std::move(rest), material);
+  return makeForDim<3>(std::move(mesh), std::move(rest), material);
+}
+
+double minAreaRatio(const Mesh& mesh, const RestState& rest, const VectorX& x, Index* where) {
+  if (mesh.dim == 2) return minAreaRatioFor<2>(mesh, rest, x, where);
+  return minAreaRatioFor<3>(mesh, rest, x, where);
+}
+
+}  // namespace fem_cloth
