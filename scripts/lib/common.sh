@@ -36,8 +36,10 @@ fem_cloth_build() {
   fi
   local log="$FEM_CLOTH_BUILD/build.log"
   echo "== build ${*:-all} (make -j$(fem_cloth_jobs), log: $log)"
-  if ! make -C "$FEM_CLOTH_BUILD" -j"$(fem_cloth_jobs)" "$@" >"$log" 2>&1; then
-    grep -E -A4 "error|Error" "$log" | head -80
+  # Re-runs cmake first when a CMakeLists.txt changed, so new targets are known.
+  if ! { make -C "$FEM_CLOTH_BUILD" cmake_check_build_system &&
+         make -C "$FEM_CLOTH_BUILD" -j"$(fem_cloth_jobs)" "$@"; } >"$log" 2>&1; then
+    grep -E -A4 "error|Error|\*\*\*" "$log" | head -80
     echo "build failed: see $log" >&2
     return 1
   fi

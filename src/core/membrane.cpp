@@ -39,6 +39,39 @@ class MembraneTerm final : public EnergyTerm {
     hessian_.resize(m);
   }
 
+  bool supportsConstraints() const override { return true; }
+  Index numElements() const override { return mesh_->numTriangles(); }
+  int verticesPerElement() const override { return 3; }
+  int constraintsPerElement() const override { return Model::kNumConstraints; }
+  const Index* elementVertices(Index element) const override {
+    return mesh_->triangles[element].data();
+  }
+  bool elementConstraints(Index t, const VectorX& x, double* C, double* jacobian) const override {
+    const DefGrad<D> F = deformationGradient<D>(*mesh_, *rest_, x, t);
+    if (!model_.template inDomain<D>(F)) return false;
+    ConstraintValues values;
+    ConstraintJacobian<D> dCdF;
+    if (!model_.template constraints<D>(F, frames_[t], values, dCdF)) return false;
+    // dC_k/dx_(a,r) = sum_c dC_k/dF_(r,c) g_a[c].
+    const Eigen::Matrix<double, 3, 2>& G = rest_->shapeGradients[t];
+    const int k = static_cast<int>(values.size());
+    for (int row = 0; row < k; ++row) {
+      C[row] = values[row];
+      for (int a = 0; a < 3; ++a) {
+        for (int r = 0; r < D; ++r) {
+          jacobian[row * 3 * D + D * a + r] = dCdF(row, r) * G(a, 0) + dCdF(row, r + D) * G(a, 1);
+        }
+      }
+    }
+    return true;
+  }
+  void elementConstraintStiffness(Index t, double* K) const override {
+    const ConstraintStiffness Km = rest_->restArea[t] * model_.constraintStiffness();
+    for (int i = 0; i < Km.rows(); ++i) {
+      for (int j = 0; j < Km.cols(); ++j) K[i * Km.cols() + j] = Km(i, j);
+    }
+  }
+
   EvalResult evaluate(const VectorX& x, const EvalRequest& request) override {
     const Index m = static_cast<Index>(mesh_->triangles.size());
     const bool wantGradient = request.gradient != nullptr;

@@ -47,19 +47,22 @@ Svd<2> svd2(const Eigen::Matrix2d& F) {
   return out;
 }
 
-Svd<3> svd3x2(const Eigen::Matrix<double, 3, 2>& F) {
+Eigen::Matrix<double, 3, 2> planeBasis(const Eigen::Matrix<double, 3, 2>& F) {
   const Eigen::Vector3d f1 = F.col(0), f2 = F.col(1);
-  Eigen::Matrix<double, 3, 2> Qm;
+  Eigen::Matrix<double, 3, 2> Q;
   const double n1 = f1.norm();
-  Qm.col(0) = n1 > 0.0 ? Eigen::Vector3d(f1 / n1) : anyOrthogonal(f2);
-  const double r11 = Qm.col(0).dot(f1);
-  const double r12 = Qm.col(0).dot(f2);
-  const Eigen::Vector3d w = f2 - r12 * Qm.col(0);
+  Q.col(0) = n1 > 0.0 ? Eigen::Vector3d(f1 / n1) : anyOrthogonal(f2);
+  const Eigen::Vector3d w = f2 - Q.col(0).dot(f2) * Q.col(0);
   const double nw = w.norm();
-  Qm.col(1) = nw > 0.0 ? Eigen::Vector3d(w / nw) : anyOrthogonal(Qm.col(0));
-  const double r22 = Qm.col(1).dot(w);
-  Eigen::Matrix2d R;
-  R << r11, r12, 0.0, r22;
+  Q.col(1) = nw > 0.0 ? Eigen::Vector3d(w / nw) : anyOrthogonal(Q.col(0));
+  return Q;
+}
+
+Svd<3> svd3x2(const Eigen::Matrix<double, 3, 2>& F) {
+  const Eigen::Matrix<double, 3, 2> Qm = planeBasis(F);
+  // R = Q^T F is upper triangular: r21 = q2 . f1 = 0 by construction.
+  Eigen::Matrix2d R = Qm.transpose() * F;
+  R(1, 0) = 0.0;
   const Svd<2> inner = svd2(R);
   Svd<3> out;
   out.U = Qm * inner.U;

@@ -45,6 +45,27 @@ class EnergyTerm {
   virtual EvalResult evaluate(const VectorX& x, const EvalRequest& request) = 0;
   /// True if the Hessian does not depend on x (quadratic terms).
   virtual bool hasConstantHessian() const { return false; }
+
+  // Constraint form, for solvers that visit one element at a time (XPBD): the energy of
+  // element e is U_e = 1/2 C_e^T K_e C_e with k signed constraint functions C_e(x) (zero at
+  // rest) and a constant k x k matrix K_e. A term without it (supportsConstraints() == false)
+  // cannot be used with such solvers.
+  static constexpr int kMaxConstraintsPerElement = 3;
+  static constexpr int kMaxElementDofs = 12;
+  virtual bool supportsConstraints() const { return false; }
+  virtual Index numElements() const { return 0; }
+  virtual int verticesPerElement() const { return 0; }
+  virtual int constraintsPerElement() const { return 0; }
+  /// The element's vertex indices (verticesPerElement() of them).
+  virtual const Index* elementVertices(Index /*element*/) const { return nullptr; }
+  /// C (k values) and dC/dx (k rows of verticesPerElement() * dim entries, row-major, element
+  /// vertex order) at x; false outside the domain. Thread-safe.
+  virtual bool elementConstraints(Index /*element*/, const VectorX& /*x*/, double* /*C*/,
+                                  double* /*jacobian*/) const {
+    return false;
+  }
+  /// K_e (k x k, row-major), constant.
+  virtual void elementConstraintStiffness(Index /*element*/, double* /*K*/) const {}
 };
 
 }  // namespace fem_cloth

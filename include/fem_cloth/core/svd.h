@@ -30,6 +30,11 @@ struct Svd {
   Eigen::Matrix2d stretch() const { return V * sigma.asDiagonal() * V.transpose(); }
 };
 
+/// An orthonormal basis Q (3 x 2) of the plane spanned by the columns of F, by Gram-Schmidt from
+/// f1, so that Q^T F is upper triangular with a non-negative diagonal (det Q^T F = J >= 0). Any
+/// completing vectors are used where F is rank deficient.
+Eigen::Matrix<double, 3, 2> planeBasis(const Eigen::Matrix<double, 3, 2>& F);
+
 /// Inversion-aware 2 x 2 SVD (closed form, no iteration).
 Svd<2> svd2(const Eigen::Matrix2d& F);
 /// Thin SVD of a 3 x 2 matrix.

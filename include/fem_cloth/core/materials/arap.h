@@ -39,6 +39,18 @@ class Arap : public IsotropicModel<Arap> {
     e.twist = 2.0 * mu_ * (1.0 - 2.0 / std::max(s.sum(), kSigmaFloor));
     return e;
   }
+
+  /// Constraint form: C = (s1 - 1, s2 - 1), dC_k/dF = u_k v_k^T, K = 2 mu I.
+  static constexpr int kNumConstraints = 2;
+  ConstraintStiffness constraintStiffness() const {
+    return ConstraintStiffness(2.0 * mu_ * Eigen::Matrix2d::Identity());
+  }
+  template <int D>
+  bool constraints(const DefGrad<D>& F, const DefGrad<D>& /*T*/, ConstraintValues& C,
+                   ConstraintJacobian<D>& J) const {
+    singularValueConstraints<D>(computeSvd<D>(F), C, J);
+    return true;
+  }
 };
 
 }  // namespace fem_cloth

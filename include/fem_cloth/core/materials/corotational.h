@@ -46,6 +46,20 @@ class Corotational : public IsotropicModel<Corotational> {
     e.twist = 2.0 * (mu_ + lambda_) * t / std::max(s.sum(), kSigmaFloor);
     return e;
   }
+
+  /// Constraint form: C = (s1 - 1, s2 - 1), K = [[2mu + lambda, lambda], [lambda, 2mu + lambda]].
+  static constexpr int kNumConstraints = 2;
+  ConstraintStiffness constraintStiffness() const {
+    ConstraintStiffness K(2, 2);
+    K << 2.0 * mu_ + lambda_, lambda_, lambda_, 2.0 * mu_ + lambda_;
+    return K;
+  }
+  template <int D>
+  bool constraints(const DefGrad<D>& F, const DefGrad<D>& /*T*/, ConstraintValues& C,
+                   ConstraintJacobian<D>& J) const {
+    singularValueConstraints<D>(computeSvd<D>(F), C, J);
+    return true;
+  }
 };
 
 }  // namespace fem_cloth

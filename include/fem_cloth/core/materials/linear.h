@@ -54,6 +54,24 @@ class LinearElasticity : public MaterialBase {
     return clampEigenvalues<D>(hessian<D>(F, T));
   }
 
+  /// Constraint form: C = (eps11, eps22, sqrt2 eps12), linear in F.
+  static constexpr int kNumConstraints = 3;
+  ConstraintStiffness constraintStiffness() const { return strainStiffness(mu_, lambda_); }
+  template <int D>
+  bool constraints(const DefGrad<D>& F, const DefGrad<D>& T, ConstraintValues& C,
+                   ConstraintJacobian<D>& J) const {
+    strainConstraints<D>(
+        strain(F, T),
+        [&](int j) {
+          DefGrad<D> dF = DefGrad<D>::Zero();
+          dF.data()[j] = 1.0;
+          const Eigen::Matrix2d g = T.transpose() * dF;
+          return Eigen::Matrix2d(0.5 * (g + g.transpose()));
+        },
+        C, J);
+    return true;
+  }
+
  private:
   template <int D>
   static Eigen::Matrix2d strain(const DefGrad<D>& F, const DefGrad<D>& T) {

@@ -17,12 +17,23 @@
 //   template <int D> DefGrad<D> pk1(F, T) const;
 //   template <int D> StressHessian<D> hessian(F, T) const;
 //   template <int D> StressHessian<D> projectedHessian(F, T) const;
+//   static constexpr int kNumConstraints;       // constraint form, see below
+//   ConstraintStiffness constraintStiffness() const;
+//   template <int D> bool constraints(F, T, ConstraintValues&, ConstraintJacobian<D>&) const;
 // pk1, hessian and projectedHessian must only be called inside the domain.
+//
+// Constraint form (for XPBD): every model also writes its energy exactly as
+//   psi(F) = 1/2 C(F)^T K C(F)
+// with k <= 3 signed constraint functions C(F), zero at rest, and a constant k x k matrix K.
+// Signed matters: a constraint such as sqrt(2 psi) has a cusp at rest, where its gradient flips,
+// and XPBD's accumulated multipliers then push the wrong way. constraints() returns false outside
+// the domain.
 //
 // Hessians are computed only when asked; models whose energy is written in invariants of
 // C = F^T F (StVK, Neo-Hookean, Stable Neo-Hookean) evaluate psi and P without any SVD.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -68,6 +79,57 @@ struct SigmaEigensystem {
 /// Hessian) from the eigensystem above.
 template <int D>
 StressHessian<D> isotropicHessian(const Svd<D>& svd, const SigmaEigensystem& eig, bool project);
+
+constexpr int kMaxConstraints = 3;
+using ConstraintValues = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxConstraints, 1>;
+using ConstraintStiffness =
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxConstraints, kMaxConstraints>;
+/// dC/dvec(F): k x 2D.
+template <int D>
+using ConstraintJacobian = Eigen::Matrix<double, Eigen::Dynamic, 2 * D, 0, kMaxConstraints, 2 * D>;
+
+/// Row-vector form of a D x 2 matrix in the vec(F) ordering.
+template <int D>
+Eigen::Matrix<double, 1, 2 * D> vecRow(const DefGrad<D>& M) {
+  return Eigen::Map<const Eigen::Matrix<double, 1, 2 * D>>(M.data());
+}
+
+/// The isotropic stiffness [[2mu + lambda, lambda, 0], [lambda, 2mu + lambda, 0], [0, 0, 2mu]]
+/// of a symmetric strain written as (e11, e22, sqrt2 e12), so that mu e:e + lambda/2 (tr e)^2 =
+/// 1/2 c^T K c.
+inline ConstraintStiffness strainStiffness(double mu, double lambda) {
+  ConstraintStiffness K(3, 3);
+  K << 2 * mu + lambda, lambda, 0, lambda, 2 * mu + lambda, 0, 0, 0, 2 * mu;
+  return K;
+}
+
+/// Constraints (e11, e22, sqrt2 e12) of a symmetric 2 x 2 strain e and their Jacobian, given
+/// the derivative of e along each vec(F) direction (a functor j -> de).
+template <int D, class StrainDerivative>
+void strainConstraints(const Eigen::Matrix2d& e, StrainDerivative de, ConstraintValues& C,
+                       ConstraintJacobian<D>& J) {
+  const double r2 = std::sqrt(2.0);
+  C.resize(3);
+  C << e(0, 0), e(1, 1), r2 * e(0, 1);
+  J.resize(3, 2 * D);
+  for (int j = 0; j < 2 * D; ++j) {
+    const Eigen::Matrix2d d = de(j);
+    J(0, j) = d(0, 0);
+    J(1, j) = d(1, 1);
+    J(2, j) = r2 * 0.5 * (d(0, 1) + d(1, 0));
+  }
+}
+
+/// C = (s1 - 1, s2 - 1) with dC_k/dF = u_k v_k^T (ARAP, corotational).
+template <int D>
+void singularValueConstraints(const Svd<D>& svd, ConstraintValues& C, ConstraintJacobian<D>& J) {
+  C.resize(2);
+  J.resize(2, 2 * D);
+  for (int k = 0; k < 2; ++k) {
+    C[k] = svd.sigma[k] - 1.0;
+    J.row(k) = vecRow<D>(svd.U.col(k) * svd.V.col(k).transpose());
+  }
+}
 
 /// Numerical PSD projection: eigen-decomposition with negative eigenvalues set to zero.
 template <int D>

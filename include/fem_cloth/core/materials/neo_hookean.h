@@ -55,6 +55,46 @@ class NeoHookean : public IsotropicModel<NeoHookean> {
     e.twist = mu_ + c / J;
     return e;
   }
+
+  /// Constraint form: C = (g(s1), g(s2), log J) with g(s) = sign(s - 1) sqrt(s^2 - 1 - 2 log s),
+  /// K = diag(mu, mu, lambda): psi = mu/2 sum (s_k^2 - 1 - 2 log s_k) + lambda/2 (log J)^2.
+  static constexpr int kNumConstraints = 3;
+  ConstraintStiffness constraintStiffness() const {
+    return ConstraintStiffness(Eigen::Vector3d(mu_, mu_, lambda_).asDiagonal());
+  }
+  template <int D>
+  bool constraints(const DefGrad<D>& F, const DefGrad<D>& /*T*/, ConstraintValues& C,
+                   ConstraintJacobian<D>& J) const {
+    const Svd<D> svd = computeSvd<D>(F);
+    if (!(svd.sigma[0] > 0.0 && svd.sigma[1] > 0.0)) return false;
+    C.resize(3);
+    J.resize(3, 2 * D);
+    for (int k = 0; k < 2; ++k) {
+      double g = 0.0, dg = 0.0;
+      deviation(svd.sigma[k], g, dg);
+      C[k] = g;
+      J.row(k) = dg * vecRow<D>(svd.U.col(k) * svd.V.col(k).transpose());
+    }
+    C[2] = std::log(svd.sigma[0] * svd.sigma[1]);
+    J.row(2) = vecRow<D>(svd.U * svd.sigma.cwiseInverse().asDiagonal() * svd.V.transpose());
+    return true;
+  }
+
+ private:
+  /// g(s) = sign(s - 1) sqrt(s^2 - 1 - 2 log s) and g'(s) = (s - 1/s) / g(s); near s = 1 from
+  /// the series s^2 - 1 - 2 log s = 2t^2 (1 - t/3 + t^2/4 - t^3/5), t = s - 1.
+  static void deviation(double s, double& g, double& dg) {
+    const double t = s - 1.0;
+    if (std::abs(t) < 1e-3) {
+      const double q = std::sqrt(1.0 - t / 3.0 + t * t / 4.0 - t * t * t / 5.0);
+      g = std::sqrt(2.0) * t * q;
+      dg = (2.0 + t) / ((1.0 + t) * std::sqrt(2.0) * q);
+      return;
+    }
+    const double f = t * (2.0 + t) - 2.0 * std::log1p(t);
+    g = (t > 0.0 ? 1.0 : -1.0) * std::sqrt(std::max(f, 0.0));
+    dg = (s - 1.0 / s) / g;
+  }
 };
 
 }  // namespace fem_cloth

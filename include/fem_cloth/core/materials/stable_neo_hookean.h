@@ -56,6 +56,34 @@ class StableNeoHookean : public IsotropicModel<StableNeoHookean> {
     return e;
   }
 
+  /// Constraint form: with G = Q^T F the deformation seen in an orthonormal basis Q of the
+  /// deformed plane (Q = I for planar elements), C = (G11 - G22, G12 + G21, J - 1) and
+  /// K = diag(mu, mu, lambda'), since I_C - 2J = (G11 - G22)^2 + (G12 + G21)^2. The first two
+  /// are linear in F for planar elements: no SVD. For cloth, dC/dF holds Q fixed, which is exact
+  /// at the current F (moving out of the plane changes C only at second order).
+  static constexpr int kNumConstraints = 3;
+  ConstraintStiffness constraintStiffness() const {
+    return ConstraintStiffness(Eigen::Vector3d(mu_, mu_, lambdaPrime_).asDiagonal());
+  }
+  template <int D>
+  bool constraints(const DefGrad<D>& F, const DefGrad<D>& /*T*/, ConstraintValues& C,
+                   ConstraintJacobian<D>& J) const {
+    DefGrad<D> Q;
+    if constexpr (D == 2) {
+      Q.setIdentity();
+    } else {
+      Q = planeBasis(F);
+    }
+    const Eigen::Matrix2d G = Q.transpose() * F;
+    C.resize(3);
+    C << G(0, 0) - G(1, 1), G(0, 1) + G(1, 0), areaRatio(F) - 1.0;
+    J.resize(3, 2 * D);
+    J.row(0) = vecRow<D>(Q.col(0) * Eigen::RowVector2d(1, 0) - Q.col(1) * Eigen::RowVector2d(0, 1));
+    J.row(1) = vecRow<D>(Q.col(0) * Eigen::RowVector2d(0, 1) + Q.col(1) * Eigen::RowVector2d(1, 0));
+    J.row(2) = vecRow<D>(areaRatioGradient(F));
+    return true;
+  }
+
  private:
   double lambdaPrime_;
 };

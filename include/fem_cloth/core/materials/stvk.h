@@ -47,6 +47,24 @@ class StVenantKirchhoff : public IsotropicModel<StVenantKirchhoff> {
     return e;
   }
 
+  /// Constraint form: C = (E11, E22, sqrt2 E12) of the Green strain.
+  static constexpr int kNumConstraints = 3;
+  ConstraintStiffness constraintStiffness() const { return strainStiffness(mu_, lambda_); }
+  template <int D>
+  bool constraints(const DefGrad<D>& F, const DefGrad<D>& /*T*/, ConstraintValues& C,
+                   ConstraintJacobian<D>& J) const {
+    strainConstraints<D>(
+        greenStrain(F),
+        [&](int j) {
+          DefGrad<D> dF = DefGrad<D>::Zero();
+          dF.data()[j] = 1.0;
+          const Eigen::Matrix2d g = dF.transpose() * F;
+          return Eigen::Matrix2d(0.5 * (g + g.transpose()));
+        },
+        C, J);
+    return true;
+  }
+
  private:
   template <int D>
   static Eigen::Matrix2d greenStrain(const DefGrad<D>& F) {

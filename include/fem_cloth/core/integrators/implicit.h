@@ -1,0 +1,73 @@
+// Implicit steppers by minimisation of the incremental potential (Gast, Schroeder, Stomakhin,
+// Jiang & Teran, "Optimization Integrator for Large Time Steps", 2015):
+//
+//   x+ = argmin Phi(x),  Phi(x) = 1/2 |x - xhat|_M^2 + c^2 (E(x) - f.x)
+//                                 + c^2 gamma/2 (x - xc)^T (alpha M + beta K0) (x - xc)
+//   v+ = gamma (x+ - xc)
+//
+// Backward Euler: xhat = xn + h vn, c^2 = h^2, gamma = 1/h, xc = xn.
+// BDF2 (second order): xhat = 4/3 xn - 1/3 xp + 8/9 h vn - 2/9 h vp, c^2 = 4/9 h^2,
+//   gamma = 3/(2h), xc = (4 xn - xp)/3, with (xp, vp) the previous step; the first step, and any
+//   step whose size differs from the previous one, falls back to backward Euler.
+// E is the elastic energy, f gravity plus commanded forces (constant over the step), alpha M +
+// beta K0 the Rayleigh damping with K0 the projected stiffness at the start of the step.
+//
+// Setting dPhi/dx = 0 gives exactly the implicit update M (x - xhat) = c^2 (f - dE/dx - D v+).
+// Phi is minimised by Newton's method with per-element PSD-projected Hessians (so every Newton
+// direction descends) and a backtracking (Armijo) line search on Phi, which therefore never
+// increases; states outside a material's domain (Neo-Hookean J <= 0) have Phi = +inf and are
+// rejected by the line search. Pinned DOFs are filtered: their rows and columns are replaced by
+// the identity (scaled by their mass) with zero right-hand side, which keeps the matrix pattern,
+// and so the symbolic factorisation, fixed while pins come and go.
+#pragma once
+
+#include "fem_cloth/core/integrators/integrator.h"
+#include "fem_cloth/core/integrators/linear_solver.h"
+
+namespace fem_cloth {
+
+enum class ImplicitScheme { BackwardEuler, Bdf2 };
+
+struct NewtonSettings {
+  int maxIterations = 50;
+  /// Converged when the largest force residual on a free DOF, |dPhi/dx| / c^2 (N), is below
+  /// tolerance x the cloth's total weight at 9.81 m/s^2.
+  double tolerance = 1e-6;
+  int maxBacktracks = 40;
+  double armijo = 1e-4;  ///< sufficient-decrease constant of the line search
+  LinearSolverSettings linear;
+};
+
+class ImplicitIntegrator final : public Integrator {
+ public:
+  ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings);
+  std::string name() const override;
+  bool needsHessian() const override { return true; }
+  StepReport step(const StepInput& input, State& state, double dt, int minSubsteps,
+                  VectorX& pinForce) override;
+  void invalidate() override { solver_.reset(); }
+
+  /// The linear solver in use (null before the first step).
+  const LinearSolver* linearSolver() const { return solver_.get(); }
+
+ private:
+  /// One implicit substep of size h; on failure returns false with report.error set.
+  bool substep(const StepInput& input, State& state, double h, int remaining, VectorX& pinForce,
+               StepReport& report);
+  double potential(const VectorX& x, double elastic) const;
+  void potentialGradient(const VectorX& x, const VectorX& elasticGradient, VectorX& out) const;
+
+  ImplicitScheme scheme_;
+  NewtonSettings settings_;
+  std::unique_ptr<LinearSolver> solver_;
+  // Per-substep data of Phi.
+  const VectorX* mass_ = nullptr;
+  const VectorX* force_ = nullptr;
+  double c2_ = 0.0, gamma_ = 0.0, alpha_ = 0.0, beta_ = 0.0;
+  VectorX xhat_, xc_, forceTotal_;
+  std::vector<double> laggedStiffness_;  // beta K0 values in the model's Hessian pattern
+  // Scratch, sized once.
+  VectorX x_, g_, gElastic_, dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_;
+};
+
+}  // namespace fem_cloth

@@ -1,0 +1,83 @@
+// The interface shared by all time integrators, and what a step reports.
+//
+// Pins are hard constraints: pinned DOFs are moved kinematically from their start-of-step
+// position to their end-of-step target (linearly within substeps) and are removed from every
+// solve; they are never stiff springs.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/model.h"
+
+namespace fem_cloth {
+
+/// Rayleigh damping: the damping force is -(alpha M + beta K) v, with K the (PSD-projected)
+/// stiffness. alpha (1/s) damps all motion like air drag; beta (s) damps fast elastic
+/// oscillations. Both zero: no damping term is evaluated at all.
+struct Damping {
+  double massProportional = 0.0;       ///< alpha, 1/s
+  double stiffnessProportional = 0.0;  ///< beta, s
+  bool any() const { return massProportional > 0.0 || stiffnessProportional > 0.0; }
+};
+
+/// The dynamic state. BDF2 needs the previous step as well.
+struct State {
+  VectorX x;  ///< positions (m), flat
+  VectorX v;  ///< velocities (m/s), flat
+  VectorX xPrevious;  ///< positions one step earlier (empty if there is no history)
+  VectorX vPrevious;
+  double historyDt = 0.0;  ///< step size that separates x and xPrevious
+  double time = 0.0;       ///< s
+  std::uint64_t step = 0;
+  bool hasHistory() const { return xPrevious.size() == x.size() && historyDt > 0.0; }
+  void clearHistory() {
+    xPrevious.resize(0);
+    vPrevious.resize(0);
+    historyDt = 0.0;
+  }
+};
+
+/// Everything a step needs besides the state. Vectors are per DOF.
+struct StepInput {
+  Model* model = nullptr;
+  const VectorX* gravityForce = nullptr;   ///< m_i g, N
+  const VectorX* externalForce = nullptr;  ///< commanded forces, constant over the step, N
+  const std::vector<char>* pinned = nullptr;  ///< per DOF: 1 if pinned
+  const VectorX* pinTarget = nullptr;  ///< end-of-step positions of pinned DOFs (m)
+  Damping damping;
+};
+
+/// What a step did. Counts add up over substeps and retries.
+struct StepReport {
+  bool ok = true;
+  std::string error;       ///< why the step failed (state untouched)
+  int substeps = 0;
+  int newtonIterations = 0;
+  double residual = 0.0;   ///< final Newton residual (N, max over free DOFs); 0 for explicit
+  int lineSearchBacktracks = 0;
+  int rollbacks = 0;       ///< failed attempts that were undone and retried
+  int xpbdIterations = 0;
+  double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
+  double dtUsed = 0.0;      ///< the (sub)step size of the last successful attempt (s)
+};
+
+class Integrator {
+ public:
+  virtual ~Integrator() = default;
+  virtual std::string name() const = 0;
+  /// Implicit steppers assemble Hessians; the others never ask for one.
+  virtual bool needsHessian() const = 0;
+  /// Advances `state` by dt with at least `minSubsteps` substeps, writing into pinForce (per
+  /// DOF, resized by the caller) the force the pins exert on the cloth at the end of the step.
+  /// On failure the report says why; the caller restores the state.
+  virtual StepReport step(const StepInput& input, State& state, double dt, int minSubsteps,
+                          VectorX& pinForce) = 0;
+  /// Called when the topology, pins or stiffness change enough to redo set-up work.
+  virtual void invalidate() {}
+};
+
+}  // namespace fem_cloth

@@ -1,0 +1,149 @@
+// A scene: everything needed to set up a simulation, as plain C++ values in SI units, with
+// validation that names the offending key. Reading scenes from YAML (files, --set overrides,
+// ROS parameters) lives outside the core, in fem_cloth/io/scene_yaml.h; the key names used in
+// messages are the YAML keys.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/integrators/implicit.h"
+#include "fem_cloth/core/integrators/symplectic_euler.h"
+#include "fem_cloth/core/integrators/xpbd.h"
+#include "fem_cloth/core/materials/materials.h"
+#include "fem_cloth/core/mesh.h"
+#include "fem_cloth/core/simulator.h"
+
+namespace fem_cloth {
+
+/// A set of vertices: explicit indices, grid coordinates (row, col; negative counts from the
+/// end, so -1 is the last row or column), or a whole grid edge. Grid forms keep a scene valid
+/// when its resolution changes. The union of all three is taken.
+struct VertexSelection {
+  std::vector<Index> vertices;
+  std::vector<std::array<int, 2>> gridVertices;
+  std::string gridEdge;  ///< "", first_row, last_row, first_col, last_col or all
+  bool empty() const { return vertices.empty() && gridVertices.empty() && gridEdge.empty(); }
+};
+
+struct ScenePin {
+  VertexSelection select;
+  /// Targets: the rest position plus `offset` (m) unless explicit `targets` (one per vertex).
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> targets;
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s, scripted pin motion
+  double releaseAt = std::numeric_limits<double>::infinity();  ///< s
+};
+
+struct SceneForce {
+  VertexSelection select;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();  ///< N, on each selected vertex
+  double start = 0.0;                                ///< s
+  double duration = std::numeric_limits<double>::infinity();  ///< s
+};
+
+struct SceneInitialPosition {
+  Index vertex = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+};
+
+struct Scene {
+  std::string name = "scene";
+  std::string sourcePath;  ///< where it was read from (relative OBJ paths resolve against it)
+
+  // mesh
+  std::string meshType = "grid";  ///< grid, obj or explicit
+  GridSpec grid;
+  std::string objFile;
+  int dim = 3;  ///< for obj and explicit meshes (grid meshes use grid.dim)
+  Mesh explicitMesh;
+  double minTriangleQuality = 1e-4;
+
+  // material: membrane moduli = volumetric moduli (Pa) x thickness (m)
+  std::string materialModel = "stvk";
+  std::optional<double> youngsModulus;  ///< Pa
+  std::optional<double> poissonRatio;
+  std::optional<double> mu;      ///< Pa (instead of youngsModulus and poissonRatio)
+  std::optional<double> lambda;  ///< Pa
+  double thickness = 5e-4;       ///< m
+  double density = 2000.0;       ///< kg/m^3; areal density = density x thickness
+
+  // bending
+  std::string bendingModel = "quadratic";
+  double bendingStiffness = 0.0;  ///< N m; 0: no bending term at all
+
+  Damping damping;
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};
+
+  // integrator
+  std::string integrator = "backward_euler";
+  double dt = 0.01;
+  int substeps = 1;
+  bool autoSubstep = true;  ///< symplectic_euler: substep to stay stable
+  double cflSafety = 0.9;   ///< symplectic_euler
+  int maxRetries = 4;
+  NewtonSettings newton;
+  int xpbdIterations = 10;
+
+  std::vector<ScenePin> pins;
+  std::vector<SceneForce> forces;
+  std::vector<SceneInitialPosition> initialPositions;
+  Eigen::Vector3d initialVelocity = Eigen::Vector3d::Zero();
+
+  double duration = 2.0;  ///< s, how long tools run the scene by default
+};
+
+/// The integrator names accepted in a scene.
+const std::vector<std::string>& integratorNames();
+
+/// Range checks on every value; the message names the YAML key.
+Status validateScene(const Scene& scene);
+
+/// Membrane Lame parameters (N/m) of a scene: volumetric moduli times thickness.
+Expected<Lame> membraneLame(const Scene& scene);
+
+/// Timed commands of a scene (pin releases, forces that start later), applied as simulated time
+/// passes.
+class SceneScript {
+ public:
+  struct Event {
+    double time = 0.0;
+    enum class Kind { ReleasePin, ApplyForce } kind = Kind::ReleasePin;
+    Index vertex = 0;
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    double duration = 0.0;
+  };
+  void add(const Event& event);
+  /// Applies every event due at or before the simulator's current time (once each).
+  Status applyDue(Simulator& simulator);
+  /// Makes every event due again (after Simulator::reset()).
+  void rewind() { next_ = 0; }
+  const std::vector<Event>& events() const { return events_; }
+
+ private:
+  std::vector<Event> events_;  // sorted by time
+  std::size_t next_ = 0;
+};
+
+struct Simulation {
+  std::shared_ptr<const Mesh> mesh;
+  std::shared_ptr<Model> model;
+  std::unique_ptr<Simulator> simulator;
+  SceneScript script;
+  std::vector<std::string> warnings;  ///< mesh warnings worth logging
+};
+
+/// Builds mesh, rest state, model (only the terms the scene declares), integrator and simulator,
+/// applies initial state, pins and forces. Any problem is an error naming its key or element.
+Expected<Simulation> buildSimulation(const Scene& scene);
+
+/// Resolves a selection against the scene's mesh.
+Expected<std::vector<Index>> resolveSelection(const VertexSelection& selection, const Scene& scene,
+                                              Index numVertices, const std::string& key);
+
+}  // namespace fem_cloth

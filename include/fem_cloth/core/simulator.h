@@ -1,0 +1,131 @@
+// The simulator: state (x, v), pins and external forces as commands, one integrator, and the
+// energy bookkeeping that lets a run check its own energy balance.
+//
+// Every step either succeeds or leaves the state exactly as it was: a failed attempt
+// (non-finite values, no Newton convergence, explicit blow-up, an element leaving its material's
+// domain) is rolled back and retried with twice the substeps, up to maxRetries times; after that
+// step() returns the error and the simulator keeps its last good state.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "fem_cloth/core/integrators/integrator.h"
+
+namespace fem_cloth {
+
+struct SimulatorSettings {
+  Eigen::Vector3d gravity{0.0, 0.0, -9.81};  ///< m/s^2 (planar meshes use the first two)
+  Damping damping;
+  double dt = 1.0 / 60.0;  ///< s, the step taken by step()
+  int minSubsteps = 1;     ///< substeps every step starts with
+  int maxRetries = 4;      ///< rollbacks per step, each doubling the substeps
+};
+
+/// Energies in joules. The balance error is the drift of
+///   kinetic + strain + bending + gravity - externalWork - pinWork + dissipated
+/// since the start (or the last reset); zero for the exact solution, numerical dissipation
+/// (implicit steppers, XPBD) or error otherwise.
+struct EnergyReport {
+  double kinetic = 0.0;
+  double strain = 0.0;
+  double bending = 0.0;
+  double gravity = 0.0;  ///< potential relative to the initial positions
+  double externalWork = 0.0;
+  double pinWork = 0.0;
+  double dissipated = 0.0;
+  double total = 0.0;  ///< kinetic + strain + bending + gravity
+  double balanceError = 0.0;
+};
+
+class Simulator {
+ public:
+  Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> integrator,
+            SimulatorSettings settings);
+
+  Model& model() { return *model_; }
+  const Model& model() const { return *model_; }
+  Integrator& integrator() { return *integrator_; }
+  const SimulatorSettings& settings() const { return settings_; }
+  const State& state() const { return state_; }
+  double time() const { return state_.time; }
+  int dim() const { return model_->dim(); }
+
+  /// Replaces positions (and velocities, zero if empty); both must be finite and sized d*n.
+  /// The new state becomes the reference of the energy balance and of reset().
+  Status setInitialState(const VectorX& x, const VectorX& v = VectorX());
+  /// Back to the initial state, pins and forces (those present when it was set) and time 0.
+  void reset();
+
+  // --- Commands (between steps) ---------------------------------------------------------------
+  /// Pins a vertex at a target (m) that then moves with `velocity` (m/s). The vertex reaches the
+  /// target at the end of the next step.
+  Status pin(Index vertex, const Eigen::Vector3d& target,
+             const Eigen::Vector3d& velocity = Eigen::Vector3d::Zero());
+  /// Pins a vertex where it is now.
+  Status pinInPlace(Index vertex);
+  Status release(Index vertex);
+  void releaseAll();
+  bool isPinned(Index vertex) const;
+  std::vector<Index> pinnedVertices() const;
+  /// The pin target of a pinned vertex (zeros beyond dim).
+  Eigen::Vector3d pinTarget(Index vertex) const;
+  /// Adds a force (N) on a vertex for `duration` seconds (infinity: until cleared), replacing
+  /// an earlier force on the same vertex.
+  Status applyForce(Index vertex, const Eigen::Vector3d& force,
+                    double duration = std::numeric_limits<double>::infinity());
+  Status clearForce(Index vertex);
+  void clearForces();
+  /// The external force currently applied on each DOF (N).
+  const VectorX& externalForce() const { return externalForce_; }
+
+  // --- Stepping -------------------------------------------------------------------------------
+  /// One step of settings().dt. On error the state is unchanged.
+  StepReport step();
+  StepReport step(double dt);
+  const StepReport& lastReport() const { return lastReport_; }
+
+  // --- Outputs --------------------------------------------------------------------------------
+  /// Evaluates the elastic energies now (one energy evaluation).
+  EnergyReport energies();
+  /// Force the cloth exerts on each pinned DOF (N; zero on free DOFs): minus the force the pins
+  /// apply, from the last step.
+  VectorX pinReactions() const { return -pinForce_; }
+
+ private:
+  Status checkVertex(Index vertex) const;
+  void rebuildExternalForce();
+  void snapshotInitial();
+
+  std::shared_ptr<Model> model_;
+  std::unique_ptr<Integrator> integrator_;
+  SimulatorSettings settings_;
+  State state_;
+  State backup_;
+  VectorX gravityForce_;
+  std::vector<char> pinned_;
+  VectorX pinTarget_, pinVelocity_;
+  struct Force {
+    Index vertex;
+    Eigen::Vector3d force;
+    double expiresAt;
+  };
+  std::vector<Force> forces_;
+  VectorX externalForce_;
+  VectorX pinForce_, previousPinForce_;
+  StepReport lastReport_;
+  // Energy bookkeeping.
+  VectorX initialPositions_;
+  double initialTotal_ = 0.0;
+  double externalWork_ = 0.0, pinWork_ = 0.0, dissipated_ = 0.0;
+  // What reset() restores.
+  struct Initial {
+    State state;
+    std::vector<char> pinned;
+    VectorX pinTarget, pinVelocity;
+    std::vector<Force> forces;
+  } initial_;
+};
+
+}  // namespace fem_cloth

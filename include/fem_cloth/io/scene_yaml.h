@@ -1,0 +1,30 @@
+// Scenes in YAML: the one format shared by fem_cloth_sim (files and --set overrides), the node
+// (ROS parameters in its private namespace, converted to the same tree) and bags (the scene is
+// stored as YAML text). See docs/scenes.md for every key, its unit and default.
+//
+// Unknown keys and ill-typed or out-of-range values are errors that name the key.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/scene.h"
+
+namespace fem_cloth {
+
+/// Reads a scene document and applies `key.path=value` overrides (the value is YAML: a number,
+/// a word, or a [list]).
+Expected<YAML::Node> loadSceneDocument(const std::string& path,
+                                       const std::vector<std::string>& overrides = {});
+/// Applies one `key.path=value` override to a document; the path must name a known key.
+Status applySceneOverride(YAML::Node& document, const std::string& assignment);
+/// Converts a document into a validated Scene; sourcePath resolves relative mesh files.
+Expected<Scene> parseScene(const YAML::Node& document, const std::string& sourcePath = "");
+/// loadSceneDocument + parseScene.
+Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
+/// The document as YAML text (for storing with a run).
+std::string sceneDocumentToString(const YAML::Node& document);
+
+}  // namespace fem_cloth

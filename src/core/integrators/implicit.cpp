@@ -1,0 +1,279 @@
+#include "fem_cloth/core/integrators/implicit.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace fem_cloth {
+
+namespace {
+
+using Matrix = LinearSolver::Matrix;
+
+// Replaces the rows and columns of pinned DOFs by the identity scaled by the DOF's mass, so
+// that the pattern is unchanged and the solve leaves pinned DOFs where they are.
+void filterPinned(Matrix& A, const std::vector<char>& pinned, const VectorX& mass) {
+  double* values = A.valuePtr();
+  const int* outer = A.outerIndexPtr();
+  const int* inner = A.innerIndexPtr();
+  for (Eigen::Index j = 0; j < A.outerSize(); ++j) {
+    const bool pinnedColumn = pinned[j] != 0;
+    for (int k = outer[j]; k < outer[j + 1]; ++k) {
+      const int i = inner[k];
+      if (pinnedColumn || pinned[i]) values[k] = (i == j) ? mass[i] : 0.0;
+    }
+  }
+}
+
+// y = K x for the values of the model's pattern given separately.
+void patternProduct(const Matrix& pattern, const std::vector<double>& values, const VectorX& x,
+                    VectorX& y) {
+  y.setZero();
+  const int* outer = pattern.outerIndexPtr();
+  const int* inner = pattern.innerIndexPtr();
+  for (Eigen::Index j = 0; j < pattern.outerSize(); ++j) {
+    const double xj = x[j];
+    for (int k = outer[j]; k < outer[j + 1]; ++k) y[inner[k]] += values[k] * xj;
+  }
+}
+
+}  // namespace
+
+ImplicitIntegrator::ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings)
+    : scheme_(scheme), settings_(settings) {}
+
+std::string ImplicitIntegrator::name() const {
+  return scheme_ == ImplicitScheme::BackwardEuler ? "backward_euler" : "bdf2";
+}
+
+double ImplicitIntegrator::potential(const VectorX& x, double elastic) const {
+  if (!std::isfinite(elastic)) return kInfiniteEnergy;
+  const VectorX& m = *mass_;
+  double inertia = 0.0, damping = 0.0;
+  for (Eigen::Index i = 0; i < x.size(); ++i) {
+    const double d = x[i] - xhat_[i];
+    inertia += m[i] * d * d;
+  }
+  if (alpha_ > 0.0) {
+    for (Eigen::Index i = 0; i < x.size(); ++i) {
+      const double d = x[i] - xc_[i];
+      damping += alpha_ * m[i] * d * d;
+    }
+  }
+  return 0.5 * inertia + c2_ * (elastic - forceTotal_.dot(x)) + 0.5 * c2_ * gamma_ * damping;
+}
+
+void ImplicitIntegrator::potentialGradient(const VectorX& x, const VectorX& elasticGradient,
+                                           VectorX& out) const {
+  const VectorX& m = *mass_;
+  out = m.cwiseProduct(x - xhat_) + c2_ * (elasticGradient - forceTotal_);
+  if (alpha_ > 0.0) out += (c2_ * gamma_ * alpha_) * m.cwiseProduct(x - xc_);
+}
+
+StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double dt,
+                                    int minSubsteps, VectorX& pinForce) {
+  StepReport report;
+  const int substeps = std::max(minSubsteps, 1);
+  const double h = dt / substeps;
+  for (int s = 0; s < substeps; ++s) {
+    if (!substep(input, state, h, substeps - s, pinForce, report)) {
+      report.ok = false;
+      return report;
+    }
+  }
+  report.substeps = substeps;
+  report.dtUsed = h;
+  return report;
+}
+
+bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h, int remaining,
+                                 VectorX& pinForce, StepReport& report) {
+  Model& model = *input.model;
+  const std::vector<char>& pinned = *input.pinned;
+  const VectorX& mass = model.dofMasses();
+  const Index n = model.numDofs();
+  mass_ = &mass;
+  alpha_ = input.damping.massProportional;
+  beta_ = input.damping.stiffnessProportional;
+
+  // Scheme coefficients.
+  const bool bdf2 = scheme_ == ImplicitScheme::Bdf2 && state.hasHistory() &&
+                    std::abs(state.historyDt - h) <= 1e-12 * h;
+  if (bdf2) {
+    xhat_ = (4.0 / 3.0) * state.x - (1.0 / 3.0) * state.xPrevious +
+            (8.0 / 9.0) * h * state.v - (2.0 / 9.0) * h * state.vPrevious;
+    c2_ = 4.0 / 9.0 * h * h;
+    gamma_ = 1.5 / h;
+    xc_ = (4.0 * state.x - state.xPrevious) / 3.0;
+  } else {
+    xhat_ = state.x + h * state.v;
+    c2_ = h * h;
+    gamma_ = 1.0 / h;
+    xc_ = state.x;
+  }
+  forceTotal_ = *input.gravityForce + *input.externalForce;
+
+  SparseHessian& hessian = model.hessianPattern();
+  Matrix& A = hessian.matrix();
+  if (solver_ == nullptr) solver_ = makeLinearSolver(settings_.linear, n);
+
+  // Lagged stiffness damping beta K0 (K0 projected, at the start of the substep).
+  if (beta_ > 0.0) {
+    hessian.setZero();
+    EvalRequest request;
+    request.energy = false;
+    request.hessian = &hessian;
+    model.evaluate(state.x, request);
+    laggedStiffness_.assign(A.valuePtr(), A.valuePtr() + A.nonZeros());
+    for (double& v : laggedStiffness_) v *= beta_;
+  }
+  auto dampingGradient = [&](const VectorX& x, VectorX& g) {
+    if (beta_ <= 0.0) return;
+    patternProduct(A, laggedStiffness_, x - xc_, scratch_);
+    g += c2_ * gamma_ * scratch_;
+  };
+  auto dampingEnergy = [&](const VectorX& x) {
+    if (beta_ <= 0.0) return 0.0;
+    patternProduct(A, laggedStiffness_, x - xc_, scratch_);
+    return 0.5 * c2_ * gamma_ * (x - xc_).dot(scratch_);
+  };
+
+  // Initial guess: the explicit prediction xhat + c^2 M^-1 f, pins at their targets. If that
+  // leaves a material's domain, start from the current positions instead.
+  x_.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    const double target = state.x[i] + ((*input.pinTarget)[i] - state.x[i]) / remaining;
+    x_[i] = pinned[i] ? target : xhat_[i] + c2_ * forceTotal_[i] / mass[i];
+  }
+  gElastic_.setZero(n);
+  EvalRequest energyAndGradient;
+  energyAndGradient.gradient = &gElastic_;
+  EvalResult r = model.evaluate(x_, energyAndGradient);
+  if (!r.inDomain) {
+    for (Index i = 0; i < n; ++i) {
+      if (!pinned[i]) x_[i] = state.x[i];
+    }
+    gElastic_.setZero();
+    r = model.evaluate(x_, energyAndGradient);
+    if (!r.inDomain) {
+      std::ostringstream msg;
+      msg << name() << ": the pin motion in this step pushes element " << r.firstBadElement
+          << " outside its material's domain (J <= 0)";
+      report.error = msg.str();
+      return false;
+    }
+  }
+  double phi = potential(x_, r.energy) + dampingEnergy(x_);
+  potentialGradient(x_, gElastic_, g_);
+  dampingGradient(x_, g_);
+
+  const double tolerance = settings_.tolerance * std::max(model.totalMass() * 9.81, 1e-12);
+  auto residualOf = [&](const VectorX& g) {
+    double worst = 0.0;
+    for (Index i = 0; i < n; ++i) {
+      if (!pinned[i]) worst = std::max(worst, std::abs(g[i]));
+    }
+    return worst / c2_;
+  };
+  double residual = residualOf(g_);
+  int iterations = 0;
+  EvalRequest hessianOnly;
+  hessianOnly.energy = false;
+  hessianOnly.hessian = &hessian;
+  hessianOnly.hessianMode = HessianMode::Projected;
+  while (residual > tolerance) {
+    if (iterations >= settings_.maxIterations) {
+      std::ostringstream msg;
+      msg << name() << ": Newton did not converge in " << iterations << " iterations (residual "
+          << residual << " N, tolerance " << tolerance << " N)";
+      report.error = msg.str();
+      report.newtonIterations += iterations;
+      report.residual = residual;
+      return false;
+    }
+    ++iterations;
+    // System matrix: M (1 + c^2 gamma alpha) + c^2 K + c^2 gamma beta K0, pins filtered.
+    hessian.setZero();
+    model.evaluate(x_, hessianOnly);
+    double* values = A.valuePtr();
+    const Eigen::Index nnz = A.nonZeros();
+    for (Eigen::Index k = 0; k < nnz; ++k) values[k] *= c2_;
+    if (beta_ > 0.0) {
+      for (Eigen::Index k = 0; k < nnz; ++k) values[k] += c2_ * gamma_ * laggedStiffness_[k];
+    }
+    for (Index i = 0; i < n; ++i) {
+      values[hessian.diagonalOffset(i)] += mass[i] * (1.0 + c2_ * gamma_ * alpha_);
+    }
+    filterPinned(A, pinned, mass);
+    rhs_ = -g_;
+    for (Index i = 0; i < n; ++i) {
+      if (pinned[i]) rhs_[i] = 0.0;
+    }
+    dx_.setZero(n);
+    if (!solver_->compute(A) || !solver_->solve(rhs_, dx_)) {
+      report.error = name() + ": the linear solve (" + solver_->name() + ") failed";
+      report.newtonIterations += iterations;
+      return false;
+    }
+    // Backtracking line search on Phi (Armijo); +inf (outside the domain) always backtracks.
+    const double slope = g_.dot(dx_);
+    double step = 1.0;
+    bool accepted = false;
+    for (int b = 0; b <= settings_.maxBacktracks; ++b) {
+      xTrial_ = x_ + step * dx_;
+      gElasticTrial_.setZero(n);
+      energyAndGradient.gradient = &gElasticTrial_;
+      const EvalResult trial = model.evaluate(xTrial_, energyAndGradient);
+      const double phiTrial =
+          trial.inDomain ? potential(xTrial_, trial.energy) + dampingEnergy(xTrial_)
+                         : kInfiniteEnergy;
+      if (phiTrial <= phi + settings_.armijo * step * slope) {
+        accepted = true;
+        phi = phiTrial;
+        break;
+      }
+      ++report.lineSearchBacktracks;
+      step *= 0.5;
+    }
+    if (!accepted) {
+      // Round-off can make the decrease unmeasurable very close to the minimum.
+      if (residual <= 1e3 * tolerance) break;
+      std::ostringstream msg;
+      msg << name() << ": the line search found no decrease of the incremental potential after "
+          << settings_.maxBacktracks << " backtracks (residual " << residual << " N)";
+      report.error = msg.str();
+      report.newtonIterations += iterations;
+      report.residual = residual;
+      return false;
+    }
+    x_.swap(xTrial_);
+    gElastic_.swap(gElasticTrial_);
+    potentialGradient(x_, gElastic_, g_);
+    dampingGradient(x_, g_);
+    residual = residualOf(g_);
+  }
+  report.newtonIterations += iterations;
+  report.residual = residual;
+  if (!x_.allFinite()) {
+    report.error = name() + ": the Newton iterate became non-finite";
+    return false;
+  }
+
+  // Commit: velocities, pin forces (the pins supply the residual force on their DOFs: the
+  // equation of motion there reads dPhi/dx / c^2 = f_pin), damping work, history.
+  VectorX vNew = gamma_ * (x_ - xc_);
+  for (Index i = 0; i < n; ++i) pinForce[i] = pinned[i] ? g_[i] / c2_ : 0.0;
+  if (alpha_ > 0.0) report.dissipated += h * alpha_ * vNew.dot(mass.cwiseProduct(vNew));
+  if (beta_ > 0.0) {
+    patternProduct(A, laggedStiffness_, vNew, scratch_);
+    report.dissipated += h * vNew.dot(scratch_);
+  }
+  state.xPrevious.swap(state.x);
+  state.vPrevious.swap(state.v);
+  state.x = x_;
+  state.v = std::move(vNew);
+  state.historyDt = h;
+  return true;
+}
+
+}  // namespace fem_cloth

@@ -1,0 +1,207 @@
+#include "fem_cloth/core/integrators/symplectic_euler.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace fem_cloth {
+
+namespace {
+
+// Mechanical energy: kinetic + elastic + gravitational (relative to the origin), J.
+double mechanicalEnergy(Model& model, const State& s, const VectorX& gravityForce) {
+  const double kinetic = 0.5 * s.v.dot(model.dofMasses().cwiseProduct(s.v));
+  const EvalResult elastic = model.evaluate(s.x, EvalRequest{});
+  return kinetic + elastic.energy - gravityForce.dot(s.x);
+}
+
+// Energy scale used to judge growth: total weight times the size of the cloth, or the kinetic
+// energy when larger. Never zero.
+double energyScale(Model& model, const State& s, const VectorX& gravityForce) {
+  const int d = model.dim();
+  Eigen::VectorXd lo = s.x.head(d), hi = s.x.head(d);
+  for (Index i = 1; i < model.numVertices(); ++i) {
+    lo = lo.cwiseMin(s.x.segment(d * i, d));
+    hi = hi.cwiseMax(s.x.segment(d * i, d));
+  }
+  const double size = (hi - lo).norm();
+  const double weight = std::max(gravityForce.norm(), model.totalMass() * 9.81);
+  const double kinetic = 0.5 * s.v.dot(model.dofMasses().cwiseProduct(s.v));
+  return std::max({weight * size, kinetic, 1e-12});
+}
+
+}  // namespace
+
+double SymplecticEuler::stableStep(Model& model, const VectorX& x, const std::vector<char>& pinned,
+                                   const Damping& damping) {
+  SparseHessian& H = model.hessianPattern();
+  H.setZero();
+  EvalRequest request;
+  request.energy = false;
+  request.hessian = &H;
+  request.hessianMode = HessianMode::Projected;
+  model.evaluate(x, request);
+  // Power iteration on the symmetric M^-1/2 K M^-1/2 restricted to free DOFs. The start vector
+  // alternates in sign from DOF to DOF so it overlaps the highest (checkerboard) modes.
+  const VectorX invSqrtMass = model.dofMasses().cwiseSqrt().cwiseInverse();
+  const Index n = model.numDofs();
+  VectorX u(n), w(n);
+  for (Index i = 0; i < n; ++i) u[i] = pinned[i] ? 0.0 : ((i / model.dim()) % 2 ? 1.0 : -1.0) + 0.1 * std::sin(i);
+  double lambdaMax = 0.0;
+  for (int it = 0; it < 60; ++it) {
+    const double norm = u.norm();
+    if (!(norm > 0.0)) break;
+    u /= norm;
+    w = invSqrtMass.cwiseProduct(H.matrix() * invSqrtMass.cwiseProduct(u));
+    for (Index i = 0; i < n; ++i) {
+      if (pinned[i]) w[i] = 0.0;
+    }
+    const double estimate = u.dot(w);
+    const bool settled = std::abs(estimate - lambdaMax) <= 1e-3 * estimate;
+    lambdaMax = estimate;
+    u = w;
+    if (settled && it > 10) break;
+  }
+  // The iteration converges from below; a 10 % margin covers the remainder.
+  const double omega = std::sqrt(std::max(lambdaMax, 0.0) * 1.1);
+  if (!(omega > 0.0)) return std::numeric_limits<double>::infinity();
+  const double zeta = 0.5 * damping.stiffnessProportional * omega;
+  return 2.0 / omega * (std::sqrt(1.0 + zeta * zeta) - zeta);
+}
+
+StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt, int minSubsteps,
+                                 VectorX& pinForce) {
+  StepReport report;
+  Model& model = *input.model;
+  const std::vector<char>& pinned = *input.pinned;
+  const VectorX& mass = model.dofMasses();
+  const Index n = model.numDofs();
+
+  if (stableStep_ <= 0.0 || boundAge_ >= static_cast<std::uint64_t>(settings_.boundUpdateInterval)) {
+    stableStep_ = stableStep(model, state.x, pinned, input.damping);
+    boundAge_ = 0;
+  }
+  ++boundAge_;
+  const double usable = settings_.cflSafety * stableStep_;
+  int substeps = std::max(minSubsteps, 1);
+  if (dt / substeps > usable) {
+    if (!settings_.autoSubstep) {
+      std::ostringstream msg;
+      msg << "symplectic_euler: dt = " << dt << " s is above the stable step " << usable
+          << " s of this scene (" << settings_.cflSafety << " x the CFL bound " << stableStep_
+          << " s); use dt <= " << usable << " s or enable substeps";
+      report.ok = false;
+      report.error = msg.str();
+      return report;
+    }
+    substeps = static_cast<int>(std::ceil(dt / usable));
+  }
+  if (substeps > settings_.maxSubsteps) {
+    std::ostringstream msg;
+    msg << "symplectic_euler: dt = " << dt << " s needs " << substeps
+        << " substeps (stable step " << usable << " s), more than the limit "
+        << settings_.maxSubsteps << "; use an implicit integrator for this scene";
+    report.ok = false;
+    report.error = msg.str();
+    return report;
+  }
+
+  const bool checkBlowUp = settings_.blowUpTolerance > 0.0;
+  const double energyStart = checkBlowUp ? mechanicalEnergy(model, state, *input.gravityForce) : 0.0;
+  const double scale = checkBlowUp ? energyScale(model, state, *input.gravityForce) : 0.0;
+
+  force_.resize(n);
+  gradient_.resize(n);
+  velocityStart_.resize(n);
+  if (input.damping.stiffnessProportional > 0.0) {
+    shiftedGradient_.resize(n);
+    dampingForce_.resize(n);
+  }
+  const double h = dt / substeps;
+  const double alpha = input.damping.massProportional;
+  const double beta = input.damping.stiffnessProportional;
+  const VectorX& target = *input.pinTarget;
+  double inputWork = 0.0;
+  for (int s = 0; s < substeps; ++s) {
+    gradient_.setZero();
+    EvalRequest request;
+    request.energy = false;
+    request.gradient = &gradient_;
+    const EvalResult r = model.evaluate(state.x, request);
+    if (!r.inDomain) {
+      report.ok = false;
+      report.error = "symplectic_euler: element " + std::to_string(r.firstBadElement) +
+                     " left its material's domain (inverted or collapsed)";
+      return report;
+    }
+    force_ = *input.gravityForce + *input.externalForce - gradient_;
+    if (beta > 0.0) {
+      // Stiffness-proportional damping -beta K v, with K v from a directional difference of
+      // the elastic gradient (one more gradient evaluation, paid only when beta > 0).
+      const double vnorm = state.v.norm();
+      if (vnorm > 0.0) {
+        const double eps = 1e-7 * (1.0 + state.x.norm()) / vnorm;
+        shifted_ = state.x + eps * state.v;
+        shiftedGradient_.setZero();
+        request.gradient = &shiftedGradient_;
+        model.evaluate(shifted_, request);
+        dampingForce_ = beta * (shiftedGradient_ - gradient_) / eps;
+        force_ -= dampingForce_;
+      } else {
+        dampingForce_.setZero();
+      }
+    }
+    velocityStart_ = state.v;
+    const double remaining = static_cast<double>(substeps - s);
+    for (Index i = 0; i < n; ++i) {
+      if (pinned[i]) {
+        // Linear interpolation to the end-of-step target.
+        const double xNew = state.x[i] + (target[i] - state.x[i]) / remaining;
+        state.v[i] = (xNew - state.x[i]) / h;
+        state.x[i] = xNew;
+      } else {
+        state.v[i] = (state.v[i] + h * force_[i] / mass[i]) / (1.0 + h * alpha);
+        inputWork += h * state.v[i] * (*input.externalForce)[i];
+        state.x[i] += h * state.v[i];
+      }
+    }
+    if (alpha > 0.0) {
+      report.dissipated += h * alpha * state.v.dot(mass.cwiseProduct(state.v));
+    }
+    if (beta > 0.0) report.dissipated += h * state.v.dot(dampingForce_);
+    if (!state.x.allFinite() || !state.v.allFinite()) {
+      report.ok = false;
+      report.error = "symplectic_euler: the state became non-finite";
+      return report;
+    }
+    if (s + 1 == substeps) {
+      for (Index i = 0; i < n; ++i) {
+        pinForce[i] = pinned[i] ? mass[i] * (state.v[i] - velocityStart_[i]) / h - force_[i] : 0.0;
+      }
+    }
+  }
+  report.substeps = substeps;
+  report.dtUsed = h;
+  if (checkBlowUp) {
+    const double energyEnd = mechanicalEnergy(model, state, *input.gravityForce);
+    // Pins may put energy in: count their work from the reaction just computed.
+    double pinWork = 0.0;
+    for (Index i = 0; i < n; ++i) {
+      if (pinned[i]) pinWork += std::abs(pinForce[i] * state.v[i] * dt);
+    }
+    const double allowed = energyStart + std::abs(inputWork) + pinWork +
+                           settings_.blowUpTolerance * std::max(scale, std::abs(energyStart));
+    if (!(energyEnd <= allowed)) {
+      std::ostringstream msg;
+      msg << "symplectic_euler: energy grew from " << energyStart << " J to " << energyEnd
+          << " J in one step (blow-up)";
+      report.ok = false;
+      report.error = msg.str();
+      stableStep_ = 0.0;  // re-estimate on retry
+      return report;
+    }
+  }
+  return report;
+}
+
+}  // namespace fem_cloth

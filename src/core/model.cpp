@@ -1,0 +1,62 @@
+#include "fem_cloth/core/model.h"
+
+namespace fem_cloth {
+
+Model::Model(std::shared_ptr<const Mesh> mesh, std::shared_ptr<const RestState> rest,
+             VectorX vertexMasses)
+    : mesh_(std::move(mesh)), rest_(std::move(rest)), vertexMasses_(std::move(vertexMasses)) {
+  const int d = mesh_->dim;
+  dofMasses_.resize(vertexMasses_.size() * d);
+  for (Eigen::Index i = 0; i < vertexMasses_.size(); ++i) {
+    dofMasses_.segment(d * i, d).setConstant(vertexMasses_[i]);
+  }
+}
+
+void Model::addTerm(std::unique_ptr<EnergyTerm> term, TermKind kind) {
+  if (hessian_ != nullptr) {
+    // A new term may couple new vertices: rebuild the pattern on next use.
+    hessian_.reset();
+  }
+  terms_.push_back({std::move(term), kind});
+}
+
+EvalResult Model::evaluate(const VectorX& x, const EvalRequest& request) {
+  EvalResult total;
+  for (Entry& entry : terms_) {
+    const EvalResult r = entry.term->evaluate(x, request);
+    total.energy += r.energy;
+    if (!r.inDomain && total.inDomain) {
+      total.inDomain = false;
+      total.firstBadElement = r.firstBadElement;
+    }
+  }
+  if (!total.inDomain) total.energy = kInfiniteEnergy;
+  return total;
+}
+
+Model::Energies Model::energies(const VectorX& x) {
+  Energies e;
+  EvalRequest request;
+  for (Entry& entry : terms_) {
+    const EvalResult r = entry.term->evaluate(x, request);
+    const double value = r.inDomain ? r.energy : kInfiniteEnergy;
+    switch (entry.kind) {
+      case TermKind::Membrane: e.membrane += value; break;
+      case TermKind::Bending: e.bending += value; break;
+      case TermKind::Other: e.other += value; break;
+    }
+  }
+  return e;
+}
+
+SparseHessian& Model::hessianPattern() {
+  if (hessian_ == nullptr) {
+    std::vector<std::vector<Index>> stencils;
+    for (const Entry& entry : terms_) entry.term->appendStencils(&stencils);
+    hessian_ = std::make_unique<SparseHessian>(numVertices(), dim(), stencils);
+    for (Entry& entry : terms_) entry.term->bindHessian(*hessian_);
+  }
+  return *hessian_;
+}
+
+}  // namespace fem_cloth

@@ -1,0 +1,368 @@
+#include "fem_cloth/core/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "fem_cloth/core/membrane.h"
+
+namespace fem_cloth {
+
+namespace {
+
+std::string str(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+Status positiveFinite(double value, const std::string& key, const std::string& unit) {
+  if (!(value > 0.0) || !std::isfinite(value)) {
+    return Error{key + " must be positive and finite (" + unit + "), got " + str(value)};
+  }
+  return Status::success();
+}
+
+Status nonNegativeFinite(double value, const std::string& key, const std::string& unit) {
+  if (!(value >= 0.0) || !std::isfinite(value)) {
+    return Error{key + " must be zero or positive and finite (" + unit + "), got " + str(value)};
+  }
+  return Status::success();
+}
+
+Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
+  if (!v.allFinite()) return Error{key + " must be finite"};
+  return Status::success();
+}
+
+#define FEM_CLOTH_CHECK(expr)     \
+  do {                            \
+    if (Status check_ = (expr); !check_) { \
+      return check_;              \
+    }                             \
+  } while (false)
+
+}  // namespace
+
+const std::vector<std::string>& integratorNames() {
+  static const std::vector<std::string> names = {"symplectic_euler", "backward_euler", "bdf2",
+                                                 "xpbd"};
+  return names;
+}
+
+Status validateScene(const Scene& s) {
+  if (s.meshType == "grid") {
+    if (s.grid.rows < 2) return Error{"mesh.rows must be at least 2, got " + std::to_string(s.grid.rows)};
+    if (s.grid.cols < 2) return Error{"mesh.cols must be at least 2, got " + std::to_string(s.grid.cols)};
+    FEM_CLOTH_CHECK(positiveFinite(s.grid.width, "mesh.width", "m"));
+    FEM_CLOTH_CHECK(positiveFinite(s.grid.height, "mesh.height", "m"));
+    if (s.grid.dim != 2 && s.grid.dim != 3) {
+      return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.grid.dim)};
+    }
+  } else if (s.meshType == "obj") {
+    if (s.objFile.empty()) return Error{"mesh.file is required for mesh.type obj"};
+  } else if (s.meshType != "explicit") {
+    return Error{"mesh.type must be grid, obj or explicit, got '" + s.meshType + "'"};
+  }
+  if ((s.meshType != "grid") && s.dim != 2 && s.dim != 3) {
+    return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.dim)};
+  }
+  if (!(s.minTriangleQuality >= 0.0 && s.minTriangleQuality < 1.0)) {
+    return Error{"mesh.min_quality must be in [0, 1), got " + str(s.minTriangleQuality)};
+  }
+  if (Expected<Material> m = makeMaterial(s.materialModel, Lame{}); !m) {
+    return Error{"material.model: " + m.error()};
+  }
+  if (Expected<Lame> lame = membraneLame(s); !lame) return Error{lame.error()};
+  FEM_CLOTH_CHECK(positiveFinite(s.thickness, "material.thickness", "m"));
+  FEM_CLOTH_CHECK(positiveFinite(s.density, "material.density", "kg/m^3"));
+  FEM_CLOTH_CHECK(nonNegativeFinite(s.bendingStiffness, "bending.stiffness", "N m"));
+  if (s.bendingModel != "quadratic" && s.bendingModel != "dihedral") {
+    return Error{"bending.model must be quadratic or dihedral, got '" + s.bendingModel + "'"};
+  }
+  FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.massProportional, "damping.mass", "1/s"));
+  FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.stiffnessProportional, "damping.stiffness", "s"));
+  FEM_CLOTH_CHECK(finiteVector(s.gravity, "gravity"));
+  if (std::find(integratorNames().begin(), integratorNames().end(), s.integrator) ==
+      integratorNames().end()) {
+    return Error{"integrator.name: unknown integrator '" + s.integrator +
+                 "' (known: symplectic_euler, backward_euler, bdf2, xpbd)"};
+  }
+  FEM_CLOTH_CHECK(positiveFinite(s.dt, "integrator.dt", "s"));
+  if (s.substeps < 1) return Error{"integrator.substeps must be at least 1, got " + std::to_string(s.substeps)};
+  if (s.maxRetries < 0) return Error{"integrator.max_retries must be >= 0"};
+  if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
+    return Error{"integrator.cfl_safety must be in (0, 1], got " + str(s.cflSafety)};
+  }
+  if (s.newton.maxIterations < 1) return Error{"integrator.max_newton_iterations must be at least 1"};
+  FEM_CLOTH_CHECK(positiveFinite(s.newton.tolerance, "integrator.newton_tolerance", "relative"));
+  if (s.newton.maxBacktracks < 0) return Error{"integrator.max_backtracks must be >= 0"};
+  FEM_CLOTH_CHECK(positiveFinite(s.newton.linear.cgTolerance, "integrator.cg_tolerance", "relative"));
+  if (s.xpbdIterations < 1) return Error{"integrator.iterations must be at least 1"};
+  for (std::size_t i = 0; i < s.pins.size(); ++i) {
+    const std::string key = "pins[" + std::to_string(i) + "]";
+    const ScenePin& p = s.pins[i];
+    if (p.select.empty()) return Error{key + " selects no vertices"};
+    FEM_CLOTH_CHECK(finiteVector(p.offset, key + ".offset"));
+    FEM_CLOTH_CHECK(finiteVector(p.velocity, key + ".velocity"));
+    for (const auto& t : p.targets) FEM_CLOTH_CHECK(finiteVector(t, key + ".targets"));
+    if (!(p.releaseAt > 0.0)) return Error{key + ".release_at must be positive (s)"};
+  }
+  for (std::size_t i = 0; i < s.forces.size(); ++i) {
+    const std::string key = "forces[" + std::to_string(i) + "]";
+    const SceneForce& f = s.forces[i];
+    if (f.select.empty()) return Error{key + " selects no vertices"};
+    FEM_CLOTH_CHECK(finiteVector(f.force, key + ".force"));
+    FEM_CLOTH_CHECK(nonNegativeFinite(f.start, key + ".start", "s"));
+    if (!(f.duration > 0.0)) return Error{key + ".duration must be positive (s)"};
+  }
+  for (const auto& p : s.initialPositions) {
+    FEM_CLOTH_CHECK(finiteVector(p.position, "initial.positions"));
+  }
+  FEM_CLOTH_CHECK(finiteVector(s.initialVelocity, "initial.velocity"));
+  FEM_CLOTH_CHECK(positiveFinite(s.duration, "duration", "s"));
+  return Status::success();
+}
+
+Expected<Lame> membraneLame(const Scene& s) {
+  const bool young = s.youngsModulus.has_value() || s.poissonRatio.has_value();
+  const bool lame = s.mu.has_value() || s.lambda.has_value();
+  if (young && lame) {
+    return Error{"material: give either youngs_modulus and poisson_ratio, or mu and lambda, "
+                 "not both"};
+  }
+  if (!young && !lame) {
+    return Error{"material: youngs_modulus and poisson_ratio (or mu and lambda) are required"};
+  }
+  Lame volumetric;
+  if (young) {
+    if (!s.youngsModulus) return Error{"material.youngs_modulus is required with poisson_ratio"};
+    if (!s.poissonRatio) return Error{"material.poisson_ratio is required with youngs_modulus"};
+    if (!(*s.youngsModulus > 0.0) || !std::isfinite(*s.youngsModulus)) {
+      return Error{"material.youngs_modulus must be positive and finite (Pa), got " +
+                   str(*s.youngsModulus)};
+    }
+    if (!(*s.poissonRatio >= 0.0 && *s.poissonRatio < 0.5)) {
+      return Error{"material.poisson_ratio must be in [0, 0.5), got " + str(*s.poissonRatio)};
+    }
+    volumetric = Lame::fromYoungPoisson(*s.youngsModulus, *s.poissonRatio);
+  } else {
+    if (!s.mu || !s.lambda) return Error{"material: mu and lambda must be given together"};
+    if (!(*s.mu > 0.0) || !std::isfinite(*s.mu)) {
+      return Error{"material.mu must be positive and finite (Pa), got " + str(*s.mu)};
+    }
+    if (!(*s.lambda >= 0.0) || !std::isfinite(*s.lambda)) {
+      return Error{"material.lambda must be zero or positive and finite (Pa), got " +
+                   str(*s.lambda)};
+    }
+    volumetric = Lame{*s.mu, *s.lambda};
+  }
+  return Lame{volumetric.mu * s.thickness, volumetric.lambda * s.thickness};
+}
+
+void SceneScript::add(const Event& event) {
+  auto it = std::upper_bound(events_.begin(), events_.end(), event,
+                             [](const Event& a, const Event& b) { return a.time < b.time; });
+  events_.insert(it, event);
+}
+
+Status SceneScript::applyDue(Simulator& sim) {
+  const double now = sim.time() + 1e-9 * sim.settings().dt;
+  while (next_ < events_.size() && events_[next_].time <= now) {
+    const Event& e = events_[next_++];
+    Status s = e.kind == Event::Kind::ReleasePin ? sim.release(e.vertex)
+                                                 : sim.applyForce(e.vertex, e.force, e.duration);
+    if (!s) return s;
+  }
+  return Status::success();
+}
+
+Expected<std::vector<Index>> resolveSelection(const VertexSelection& sel, const Scene& scene,
+                                              Index numVertices, const std::string& key) {
+  std::vector<Index> out;
+  for (Index v : sel.vertices) {
+    if (v < 0 || v >= numVertices) {
+      return Error{key + ": vertex " + std::to_string(v) + " does not exist (the mesh has " +
+                   std::to_string(numVertices) + " vertices)"};
+    }
+    out.push_back(v);
+  }
+  const bool gridForms = !sel.gridVertices.empty() || !sel.gridEdge.empty();
+  if (gridForms && scene.meshType != "grid") {
+    return Error{key + ": grid_vertices and grid_edge need mesh.type grid"};
+  }
+  const int rows = scene.grid.rows, cols = scene.grid.cols;
+  for (const auto& rc : sel.gridVertices) {
+    const int r = rc[0] < 0 ? rows + rc[0] : rc[0];
+    const int c = rc[1] < 0 ? cols + rc[1] : rc[1];
+    if (r < 0 || r >= rows || c < 0 || c >= cols) {
+      return Error{key + ": grid vertex (" + std::to_string(rc[0]) + ", " + std::to_string(rc[1]) +
+                   ") is outside the " + std::to_string(rows) + " x " + std::to_string(cols) +
+                   " grid"};
+    }
+    out.push_back(r * cols + c);
+  }
+  if (!sel.gridEdge.empty()) {
+    if (sel.gridEdge == "first_row" || sel.gridEdge == "last_row") {
+      const int r = sel.gridEdge == "first_row" ? 0 : rows - 1;
+      for (int c = 0; c < cols; ++c) out.push_back(r * cols + c);
+    } else if (sel.gridEdge == "first_col" || sel.gridEdge == "last_col") {
+      const int c = sel.gridEdge == "first_col" ? 0 : cols - 1;
+      for (int r = 0; r < rows; ++r) out.push_back(r * cols + c);
+    } else if (sel.gridEdge == "all") {
+      for (Index v = 0; v < numVertices; ++v) out.push_back(v);
+    } else {
+      return Error{key + ".grid_edge must be first_row, last_row, first_col, last_col or all, got '" +
+                   sel.gridEdge + "'"};
+    }
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+namespace {
+
+Expected<Mesh> buildMesh(const Scene& s) {
+  if (s.meshType == "grid") return makeGrid(s.grid);
+  if (s.meshType == "obj") {
+    std::string path = s.objFile;
+    if (!path.empty() && path[0] != '/' && !s.sourcePath.empty()) {
+      const auto slash = s.sourcePath.find_last_of('/');
+      if (slash != std::string::npos) path = s.sourcePath.substr(0, slash + 1) + path;
+    }
+    return loadObj(path, s.dim);
+  }
+  Mesh mesh = s.explicitMesh;
+  mesh.dim = s.dim;
+  return mesh;
+}
+
+std::unique_ptr<Integrator> makeIntegrator(const Scene& s) {
+  if (s.integrator == "symplectic_euler") {
+    SymplecticEulerSettings settings;
+    settings.autoSubstep = s.autoSubstep;
+    settings.cflSafety = s.cflSafety;
+    return std::make_unique<SymplecticEuler>(settings);
+  }
+  if (s.integrator == "xpbd") {
+    XpbdSettings settings;
+    settings.iterations = s.xpbdIterations;
+    return std::make_unique<Xpbd>(settings);
+  }
+  return std::make_unique<ImplicitIntegrator>(
+      s.integrator == "bdf2" ? ImplicitScheme::Bdf2 : ImplicitScheme::BackwardEuler, s.newton);
+}
+
+}  // namespace
+
+Expected<Simulation> buildSimulation(const Scene& scene) {
+  if (Status s = validateScene(scene); !s) return Error{s.error()};
+  Expected<Mesh> built = buildMesh(scene);
+  if (!built) return Error{"mesh: " + built.error()};
+  const MeshValidation check = validateMesh(*built, scene.minTriangleQuality);
+  if (!check.ok()) return Error{"mesh: " + check.errorSummary()};
+  auto mesh = std::make_shared<const Mesh>(std::move(built).value());
+  Expected<RestState> restState = computeRestState(*mesh);
+  if (!restState) return Error{"mesh: " + restState.error()};
+  auto rest = std::make_shared<const RestState>(std::move(restState).value());
+  const Lame lame = *membraneLame(scene);
+  Expected<Material> material = makeMaterial(scene.materialModel, lame);
+  if (!material) return Error{"material.model: " + material.error()};
+
+  Simulation sim;
+  sim.mesh = mesh;
+  sim.warnings = check.warnings;
+  sim.model = std::make_shared<Model>(mesh, rest,
+                                       lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
+  sim.model->addTerm(makeMembraneTerm(mesh, rest, *material), TermKind::Membrane);
+  if (scene.bendingStiffness > 0.0) {
+    return Error{"bending.stiffness: bending is not available in this build yet; set it to 0"};
+  }
+
+  SimulatorSettings settings;
+  settings.gravity = scene.gravity;
+  settings.damping = scene.damping;
+  settings.dt = scene.dt;
+  settings.minSubsteps = scene.substeps;
+  settings.maxRetries = scene.maxRetries;
+  sim.simulator = std::make_unique<Simulator>(sim.model, makeIntegrator(scene), settings);
+  Simulator& simulator = *sim.simulator;
+  const int d = mesh->dim;
+  const Index n = mesh->numVertices();
+
+  // Initial state.
+  VectorX x = mesh->restPositions;
+  for (const auto& p : scene.initialPositions) {
+    if (p.vertex < 0 || p.vertex >= n) {
+      return Error{"initial.positions: vertex " + std::to_string(p.vertex) +
+                   " does not exist (the mesh has " + std::to_string(n) + " vertices)"};
+    }
+    x.segment(d * p.vertex, d) = p.position.head(d);
+  }
+  VectorX v = VectorX::Zero(x.size());
+  for (Index i = 0; i < n; ++i) v.segment(d * i, d) = scene.initialVelocity.head(d);
+
+  // Pins (targets from the initial positions) and forces that act from the start.
+  for (std::size_t i = 0; i < scene.pins.size(); ++i) {
+    const ScenePin& p = scene.pins[i];
+    const std::string key = "pins[" + std::to_string(i) + "]";
+    Expected<std::vector<Index>> verts = resolveSelection(p.select, scene, n, key);
+    if (!verts) return Error{verts.error()};
+    if (!p.targets.empty() && p.targets.size() != verts->size()) {
+      return Error{key + ".targets has " + std::to_string(p.targets.size()) +
+                   " entries for " + std::to_string(verts->size()) + " selected vertices"};
+    }
+    for (std::size_t k = 0; k < verts->size(); ++k) {
+      const Index vert = (*verts)[k];
+      Eigen::Vector3d target = Eigen::Vector3d::Zero();
+      if (!p.targets.empty()) {
+        target = p.targets[k];
+      } else {
+        target.head(d) = x.segment(d * vert, d);
+        target += p.offset;
+      }
+      x.segment(d * vert, d) = target.head(d);
+      v.segment(d * vert, d) = p.velocity.head(d);
+      if (Status st = simulator.pin(vert, target, p.velocity); !st) return Error{key + ": " + st.error()};
+      if (std::isfinite(p.releaseAt)) {
+        SceneScript::Event e;
+        e.time = p.releaseAt;
+        e.kind = SceneScript::Event::Kind::ReleasePin;
+        e.vertex = vert;
+        sim.script.add(e);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < scene.forces.size(); ++i) {
+    const SceneForce& f = scene.forces[i];
+    const std::string key = "forces[" + std::to_string(i) + "]";
+    Expected<std::vector<Index>> verts = resolveSelection(f.select, scene, n, key);
+    if (!verts) return Error{verts.error()};
+    for (Index vert : *verts) {
+      if (f.start <= 0.0) {
+        if (Status st = simulator.applyForce(vert, f.force, f.duration); !st) {
+          return Error{key + ": " + st.error()};
+        }
+      } else {
+        SceneScript::Event e;
+        e.time = f.start;
+        e.kind = SceneScript::Event::Kind::ApplyForce;
+        e.vertex = vert;
+        e.force = f.force;
+        e.duration = f.duration;
+        sim.script.add(e);
+      }
+    }
+  }
+  if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
+  const Model::Energies e0 = sim.model->energies(x);
+  if (!std::isfinite(e0.total())) {
+    return Error{"initial: the initial positions put an element outside the material's domain "
+                 "(J <= 0 for " + scene.materialModel + ")"};
+  }
+  return sim;
+}
+
+}  // namespace fem_cloth

@@ -1,0 +1,291 @@
+#include "fem_cloth/core/simulator.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace fem_cloth {
+
+Simulator::Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> integrator,
+                     SimulatorSettings settings)
+    : model_(std::move(model)), integrator_(std::move(integrator)), settings_(settings) {
+  const Index n = model_->numDofs();
+  const int d = model_->dim();
+  gravityForce_.resize(n);
+  for (Index i = 0; i < model_->numVertices(); ++i) {
+    for (int k = 0; k < d; ++k) {
+      gravityForce_[d * i + k] = model_->vertexMasses()[i] * settings_.gravity[k];
+    }
+  }
+  pinned_.assign(n, 0);
+  pinTarget_ = VectorX::Zero(n);
+  pinVelocity_ = VectorX::Zero(n);
+  externalForce_ = VectorX::Zero(n);
+  pinForce_ = VectorX::Zero(n);
+  previousPinForce_ = VectorX::Zero(n);
+  state_.x = model_->mesh().restPositions;
+  state_.v = VectorX::Zero(n);
+  snapshotInitial();
+}
+
+void Simulator::snapshotInitial() {
+  initial_.state = state_;
+  initial_.pinned = pinned_;
+  initial_.pinTarget = pinTarget_;
+  initial_.pinVelocity = pinVelocity_;
+  initial_.forces = forces_;
+  initialPositions_ = state_.x;
+  externalWork_ = pinWork_ = dissipated_ = 0.0;
+  pinForce_.setZero();
+  previousPinForce_.setZero();
+  const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
+  initialTotal_ = kinetic + model_->energies(state_.x).total();
+}
+
+Status Simulator::setInitialState(const VectorX& x, const VectorX& v) {
+  const Index n = model_->numDofs();
+  if (x.size() != n) {
+    return Error{"initial positions have " + std::to_string(x.size()) + " entries, expected " +
+                 std::to_string(n)};
+  }
+  if (v.size() != 0 && v.size() != n) {
+    return Error{"initial velocities have " + std::to_string(v.size()) + " entries, expected " +
+                 std::to_string(n)};
+  }
+  if (!x.allFinite() || (v.size() != 0 && !v.allFinite())) {
+    return Error{"initial state has non-finite values"};
+  }
+  state_.x = x;
+  state_.v = v.size() == 0 ? VectorX::Zero(n) : v;
+  state_.clearHistory();
+  state_.time = 0.0;
+  state_.step = 0;
+  for (Index i = 0; i < n; ++i) {
+    if (pinned_[i]) pinTarget_[i] = x[i];
+  }
+  integrator_->invalidate();
+  snapshotInitial();
+  return Status::success();
+}
+
+void Simulator::reset() {
+  state_ = initial_.state;
+  pinned_ = initial_.pinned;
+  pinTarget_ = initial_.pinTarget;
+  pinVelocity_ = initial_.pinVelocity;
+  forces_ = initial_.forces;
+  rebuildExternalForce();
+  integrator_->invalidate();
+  externalWork_ = pinWork_ = dissipated_ = 0.0;
+  pinForce_.setZero();
+  previousPinForce_.setZero();
+  lastReport_ = StepReport();
+}
+
+Status Simulator::checkVertex(Index vertex) const {
+  if (vertex < 0 || vertex >= model_->numVertices()) {
+    return Error{"vertex " + std::to_string(vertex) + " does not exist (the mesh has " +
+                 std::to_string(model_->numVertices()) + " vertices, 0 to " +
+                 std::to_string(model_->numVertices() - 1) + ")"};
+  }
+  return Status::success();
+}
+
+Status Simulator::pin(Index vertex, const Eigen::Vector3d& target,
+                      const Eigen::Vector3d& velocity) {
+  if (Status s = checkVertex(vertex); !s) return s;
+  const int d = dim();
+  if (!target.head(d).allFinite() || !velocity.head(d).allFinite()) {
+    return Error{"pin target of vertex " + std::to_string(vertex) + " is not finite"};
+  }
+  for (int k = 0; k < d; ++k) {
+    pinned_[d * vertex + k] = 1;
+    pinTarget_[d * vertex + k] = target[k];
+    pinVelocity_[d * vertex + k] = velocity[k];
+  }
+  return Status::success();
+}
+
+Status Simulator::pinInPlace(Index vertex) {
+  if (Status s = checkVertex(vertex); !s) return s;
+  const int d = dim();
+  Eigen::Vector3d here = Eigen::Vector3d::Zero();
+  here.head(d) = state_.x.segment(d * vertex, d);
+  return pin(vertex, here);
+}
+
+Status Simulator::release(Index vertex) {
+  if (Status s = checkVertex(vertex); !s) return s;
+  const int d = dim();
+  for (int k = 0; k < d; ++k) {
+    pinned_[d * vertex + k] = 0;
+    pinVelocity_[d * vertex + k] = 0.0;
+    pinForce_[d * vertex + k] = 0.0;
+    previousPinForce_[d * vertex + k] = 0.0;
+  }
+  return Status::success();
+}
+
+void Simulator::releaseAll() {
+  std::fill(pinned_.begin(), pinned_.end(), 0);
+  pinVelocity_.setZero();
+  pinForce_.setZero();
+  previousPinForce_.setZero();
+}
+
+bool Simulator::isPinned(Index vertex) const {
+  return vertex >= 0 && vertex < model_->numVertices() && pinned_[dim() * vertex] != 0;
+}
+
+std::vector<Index> Simulator::pinnedVertices() const {
+  std::vector<Index> out;
+  for (Index i = 0; i < model_->numVertices(); ++i) {
+    if (pinned_[dim() * i]) out.push_back(i);
+  }
+  return out;
+}
+
+Eigen::Vector3d Simulator::pinTarget(Index vertex) const {
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  const int d = dim();
+  for (int k = 0; k < d; ++k) t[k] = pinTarget_[d * vertex + k];
+  return t;
+}
+
+Status Simulator::applyForce(Index vertex, const Eigen::Vector3d& force, double duration) {
+  if (Status s = checkVertex(vertex); !s) return s;
+  if (!force.allFinite()) {
+    return Error{"force on vertex " + std::to_string(vertex) + " is not finite"};
+  }
+  if (!(duration > 0.0)) {
+    return Error{"force duration must be positive (s), got " + std::to_string(duration)};
+  }
+  const double expiresAt = std::isinf(duration) ? duration : state_.time + duration;
+  auto it = std::find_if(forces_.begin(), forces_.end(),
+                         [&](const Force& f) { return f.vertex == vertex; });
+  if (it != forces_.end()) {
+    *it = Force{vertex, force, expiresAt};
+  } else {
+    forces_.push_back(Force{vertex, force, expiresAt});
+  }
+  rebuildExternalForce();
+  return Status::success();
+}
+
+Status Simulator::clearForce(Index vertex) {
+  if (Status s = checkVertex(vertex); !s) return s;
+  forces_.erase(std::remove_if(forces_.begin(), forces_.end(),
+                               [&](const Force& f) { return f.vertex == vertex; }),
+                forces_.end());
+  rebuildExternalForce();
+  return Status::success();
+}
+
+void Simulator::clearForces() {
+  forces_.clear();
+  rebuildExternalForce();
+}
+
+void Simulator::rebuildExternalForce() {
+  externalForce_.setZero();
+  const int d = dim();
+  for (const Force& f : forces_) externalForce_.segment(d * f.vertex, d) += f.force.head(d);
+}
+
+StepReport Simulator::step() { return step(settings_.dt); }
+
+StepReport Simulator::step(double dt) {
+  StepReport total;
+  if (!(dt > 0.0) || !std::isfinite(dt)) {
+    total.ok = false;
+    total.error = "time step must be positive and finite, got " + std::to_string(dt);
+    lastReport_ = total;
+    return total;
+  }
+  // Forces whose duration ended before this step no longer act.
+  const std::size_t before = forces_.size();
+  forces_.erase(std::remove_if(forces_.begin(), forces_.end(),
+                               [&](const Force& f) { return f.expiresAt <= state_.time + 1e-12 * dt; }),
+                forces_.end());
+  if (forces_.size() != before) rebuildExternalForce();
+
+  // End-of-step pin targets.
+  StepInput input;
+  input.model = model_.get();
+  input.gravityForce = &gravityForce_;
+  input.externalForce = &externalForce_;
+  input.pinned = &pinned_;
+  input.pinTarget = &pinTarget_;
+  input.damping = settings_.damping;
+
+  backup_ = state_;
+  int substeps = std::max(settings_.minSubsteps, 1);
+  for (int attempt = 0; attempt <= settings_.maxRetries; ++attempt) {
+    StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
+    total.substeps = r.substeps;
+    total.newtonIterations += r.newtonIterations;
+    total.lineSearchBacktracks += r.lineSearchBacktracks;
+    total.xpbdIterations += r.xpbdIterations;
+    total.residual = r.residual;
+    total.dtUsed = r.dtUsed;
+    if (r.ok && state_.x.allFinite() && state_.v.allFinite()) {
+      total.dissipated = r.dissipated;
+      total.ok = true;
+      total.error.clear();
+      break;
+    }
+    total.ok = false;
+    total.error = r.ok ? "the state became non-finite" : r.error;
+    state_ = backup_;
+    integrator_->invalidate();
+    if (attempt < settings_.maxRetries) {
+      ++total.rollbacks;
+      substeps = std::max(substeps, r.substeps) * 2;
+    }
+  }
+  if (!total.ok) {
+    std::ostringstream msg;
+    msg << "step at t = " << state_.time << " s failed after " << total.rollbacks
+        << " rollbacks (last try: " << substeps << " substeps): " << total.error
+        << "; the state is unchanged";
+    total.error = msg.str();
+    pinForce_ = previousPinForce_;
+    lastReport_ = total;
+    return total;
+  }
+  // Energy bookkeeping: work of the (constant) external forces and, with the trapezoid rule, of
+  // the pins, along the displacement of this step; dissipation reported by the integrator.
+  const Index n = model_->numDofs();
+  for (Index i = 0; i < n; ++i) {
+    const double dx = state_.x[i] - backup_.x[i];
+    externalWork_ += externalForce_[i] * dx;
+    if (pinned_[i]) pinWork_ += 0.5 * (pinForce_[i] + previousPinForce_[i]) * dx;
+  }
+  dissipated_ += total.dissipated;
+  previousPinForce_ = pinForce_;
+  state_.time += dt;
+  ++state_.step;
+  // Scripted pin motion.
+  for (Index i = 0; i < n; ++i) {
+    if (pinned_[i]) pinTarget_[i] += pinVelocity_[i] * dt;
+  }
+  lastReport_ = total;
+  return total;
+}
+
+EnergyReport Simulator::energies() {
+  EnergyReport e;
+  e.kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
+  const Model::Energies elastic = model_->energies(state_.x);
+  e.strain = elastic.membrane + elastic.other;
+  e.bending = elastic.bending;
+  e.gravity = -gravityForce_.dot(state_.x - initialPositions_);
+  e.externalWork = externalWork_;
+  e.pinWork = pinWork_;
+  e.dissipated = dissipated_;
+  e.total = e.kinetic + e.strain + e.bending + e.gravity;
+  e.balanceError = e.total - e.externalWork - e.pinWork + e.dissipated - initialTotal_;
+  return e;
+}
+
+}  // namespace fem_cloth

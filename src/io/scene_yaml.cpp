@@ -1,0 +1,442 @@
+#include "fem_cloth/io/scene_yaml.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace fem_cloth {
+
+namespace {
+
+std::string joinKeys(const std::vector<std::string>& keys) {
+  std::string out;
+  for (const std::string& k : keys) out += (out.empty() ? "" : ", ") + k;
+  return out;
+}
+
+std::string describe(const YAML::Node& node) {
+  if (!node.IsDefined() || node.IsNull()) return "nothing";
+  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  if (node.IsSequence()) return "a list";
+  return "a map";
+}
+
+// Reads the keys of one YAML map, remembering which were used so that unknown keys are errors.
+class MapReader {
+ public:
+  // A missing key gives yaml-cpp's "zombie" node, on which most calls throw: keep a null
+  // node instead.
+  MapReader(const YAML::Node& node, std::string path, std::vector<std::string> known)
+      : node_(node.IsDefined() ? node : YAML::Node(YAML::NodeType::Null)),
+        path_(std::move(path)),
+        known_(std::move(known)) {}
+
+  Status check() const {
+    if (!node_.IsDefined() || node_.IsNull()) return Status::success();
+    if (!node_.IsMap()) return Error{where("") + " must be a map of keys, got " + describe(node_)};
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (std::find(known_.begin(), known_.end(), key) == known_.end()) {
+        return Error{"unknown key '" + where(key) + "' (known here: " + joinKeys(known_) + ")"};
+      }
+    }
+    return Status::success();
+  }
+
+  bool has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull(); }
+  YAML::Node child(const std::string& key) const { return node_.IsMap() ? node_[key] : YAML::Node(); }
+  std::string where(const std::string& key) const {
+    if (path_.empty()) return key.empty() ? "scene" : key;
+    return key.empty() ? path_ : path_ + "." + key;
+  }
+
+  Status number(const std::string& key, double& out) const {
+    if (!has(key)) return Status::success();
+    return toNumber(child(key), where(key), out);
+  }
+  Status optionalNumber(const std::string& key, std::optional<double>& out) const {
+    if (!has(key)) return Status::success();
+    double v = 0.0;
+    if (Status s = toNumber(child(key), where(key), v); !s) return s;
+    out = v;
+    return Status::success();
+  }
+  Status integer(const std::string& key, int& out) const {
+    if (!has(key)) return Status::success();
+    return toInteger(child(key), where(key), out);
+  }
+  Status boolean(const std::string& key, bool& out) const {
+    if (!has(key)) return Status::success();
+    const YAML::Node n = child(key);
+    try {
+      if (!n.IsScalar()) throw YAML::Exception(YAML::Mark(), "");
+      out = n.as<bool>();
+    } catch (const YAML::Exception&) {
+      return Error{where(key) + " must be true or false, got " + describe(n)};
+    }
+    return Status::success();
+  }
+  Status text(const std::string& key, std::string& out) const {
+    if (!has(key)) return Status::success();
+    const YAML::Node n = child(key);
+    if (!n.IsScalar()) return Error{where(key) + " must be a word, got " + describe(n)};
+    out = n.Scalar();
+    return Status::success();
+  }
+  /// A vector of 2 or 3 numbers (missing z is 0).
+  Status vector(const std::string& key, Eigen::Vector3d& out) const {
+    if (!has(key)) return Status::success();
+    return toVector(child(key), where(key), out);
+  }
+
+  static Status toNumber(const YAML::Node& n, const std::string& name, double& out) {
+    if (!n.IsScalar()) return Error{name + " must be a number, got " + describe(n)};
+    try {
+      out = n.as<double>();
+    } catch (const YAML::Exception&) {
+      return Error{name + " must be a number, got " + describe(n)};
+    }
+    if (!std::isfinite(out)) return Error{name + " must be finite, got " + describe(n)};
+    return Status::success();
+  }
+  static Status toInteger(const YAML::Node& n, const std::string& name, int& out) {
+    double v = 0.0;
+    if (Status s = toNumber(n, name, v); !s) return s;
+    if (v != std::floor(v) || std::abs(v) > 1e9) {
+      return Error{name + " must be a whole number, got " + describe(n)};
+    }
+    out = static_cast<int>(v);
+    return Status::success();
+  }
+  static Status toVector(const YAML::Node& n, const std::string& name, Eigen::Vector3d& out) {
+    if (!n.IsSequence() || n.size() < 2 || n.size() > 3) {
+      return Error{name + " must be a list of 2 or 3 numbers, got " + describe(n)};
+    }
+    Eigen::Vector3d v = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < n.size(); ++k) {
+      if (Status s = toNumber(n[k], name + "[" + std::to_string(k) + "]", v[k]); !s) return s;
+    }
+    out = v;
+    return Status::success();
+  }
+
+ private:
+  YAML::Node node_;
+  std::string path_;
+  std::vector<std::string> known_;
+};
+
+#define FEM_CLOTH_TRY(expr)       \
+  do {                            \
+    if (Status check_ = (expr); !check_) { \
+      return Error{check_.error()}; \
+    }                             \
+  } while (false)
+
+Status readSelection(const MapReader& r, VertexSelection& sel) {
+  if (r.has("vertices")) {
+    const YAML::Node n = r.child("vertices");
+    if (!n.IsSequence()) return Error{r.where("vertices") + " must be a list of vertex indices"};
+    for (std::size_t k = 0; k < n.size(); ++k) {
+      int v = 0;
+      if (Status s = MapReader::toInteger(n[k], r.where("vertices") + "[" + std::to_string(k) + "]", v); !s) return s;
+      sel.vertices.push_back(v);
+    }
+  }
+  if (r.has("grid_vertices")) {
+    const YAML::Node n = r.child("grid_vertices");
+    if (!n.IsSequence()) return Error{r.where("grid_vertices") + " must be a list of [row, col] pairs"};
+    for (std::size_t k = 0; k < n.size(); ++k) {
+      const std::string name = r.where("grid_vertices") + "[" + std::to_string(k) + "]";
+      if (!n[k].IsSequence() || n[k].size() != 2) return Error{name + " must be a [row, col] pair"};
+      std::array<int, 2> rc{};
+      for (int j = 0; j < 2; ++j) {
+        if (Status s = MapReader::toInteger(n[k][j], name, rc[j]); !s) return s;
+      }
+      sel.gridVertices.push_back(rc);
+    }
+  }
+  return r.text("grid_edge", sel.gridEdge);
+}
+
+Status readMesh(const YAML::Node& node, Scene& s) {
+  if (!node.IsDefined() || node.IsNull()) return Error{"mesh is required"};
+  MapReader r(node, "mesh",
+              {"type", "rows", "cols", "width", "height", "dim", "plane", "origin", "file",
+               "vertices", "triangles", "min_quality"});
+  FEM_CLOTH_TRY(r.check());
+  FEM_CLOTH_TRY(r.text("type", s.meshType));
+  FEM_CLOTH_TRY(r.integer("rows", s.grid.rows));
+  FEM_CLOTH_TRY(r.integer("cols", s.grid.cols));
+  FEM_CLOTH_TRY(r.number("width", s.grid.width));
+  FEM_CLOTH_TRY(r.number("height", s.grid.height));
+  FEM_CLOTH_TRY(r.integer("dim", s.dim));
+  s.grid.dim = s.dim;
+  std::string plane = "xy";
+  FEM_CLOTH_TRY(r.text("plane", plane));
+  if (plane == "xy") {
+    s.grid.plane = GridPlane::XY;
+  } else if (plane == "xz") {
+    s.grid.plane = GridPlane::XZ;
+  } else if (plane == "yz") {
+    s.grid.plane = GridPlane::YZ;
+  } else {
+    return Error{"mesh.plane must be xy, xz or yz, got '" + plane + "'"};
+  }
+  Eigen::Vector3d origin(s.grid.origin[0], s.grid.origin[1], s.grid.origin[2]);
+  FEM_CLOTH_TRY(r.vector("origin", origin));
+  s.grid.origin = {origin.x(), origin.y(), origin.z()};
+  FEM_CLOTH_TRY(r.text("file", s.objFile));
+  FEM_CLOTH_TRY(r.number("min_quality", s.minTriangleQuality));
+  if (r.has("vertices") || r.has("triangles")) {
+    if (s.meshType != "explicit") {
+      return Error{"mesh.vertices and mesh.triangles need mesh.type explicit"};
+    }
+    const YAML::Node vs = r.child("vertices"), ts = r.child("triangles");
+    if (!vs.IsSequence() || !ts.IsSequence()) {
+      return Error{"mesh.vertices and mesh.triangles must both be lists"};
+    }
+    s.explicitMesh.dim = s.dim;
+    s.explicitMesh.restPositions.resize(static_cast<Eigen::Index>(vs.size()) * s.dim);
+    for (std::size_t i = 0; i < vs.size(); ++i) {
+      Eigen::Vector3d p;
+      FEM_CLOTH_TRY(MapReader::toVector(vs[i], "mesh.vertices[" + std::to_string(i) + "]", p));
+      if (s.dim == 2 && p.z() != 0.0) {
+        return Error{"mesh.vertices[" + std::to_string(i) + "] has z != 0 in a planar mesh"};
+      }
+      s.explicitMesh.restPositions.segment(s.dim * static_cast<Eigen::Index>(i), s.dim) = p.head(s.dim);
+    }
+    for (std::size_t t = 0; t < ts.size(); ++t) {
+      const std::string name = "mesh.triangles[" + std::to_string(t) + "]";
+      if (!ts[t].IsSequence() || ts[t].size() != 3) return Error{name + " must be 3 vertex indices"};
+      Triangle tri{};
+      for (int k = 0; k < 3; ++k) FEM_CLOTH_TRY(MapReader::toInteger(ts[t][k], name, tri[k]));
+      s.explicitMesh.triangles.push_back(tri);
+    }
+  } else if (s.meshType == "explicit") {
+    return Error{"mesh.type explicit needs mesh.vertices and mesh.triangles"};
+  }
+  return Status::success();
+}
+
+Status readIntegrator(const YAML::Node& node, Scene& s) {
+  MapReader r(node, "integrator",
+              {"name", "dt", "substeps", "auto_substep", "cfl_safety", "max_retries",
+               "max_newton_iterations", "newton_tolerance", "max_backtracks", "linear_solver",
+               "cg_tolerance", "cg_max_iterations", "iterations"});
+  FEM_CLOTH_TRY(r.check());
+  FEM_CLOTH_TRY(r.text("name", s.integrator));
+  FEM_CLOTH_TRY(r.number("dt", s.dt));
+  FEM_CLOTH_TRY(r.integer("substeps", s.substeps));
+  FEM_CLOTH_TRY(r.boolean("auto_substep", s.autoSubstep));
+  FEM_CLOTH_TRY(r.number("cfl_safety", s.cflSafety));
+  FEM_CLOTH_TRY(r.integer("max_retries", s.maxRetries));
+  FEM_CLOTH_TRY(r.integer("max_newton_iterations", s.newton.maxIterations));
+  FEM_CLOTH_TRY(r.number("newton_tolerance", s.newton.tolerance));
+  FEM_CLOTH_TRY(r.integer("max_backtracks", s.newton.maxBacktracks));
+  std::string solver = "auto";
+  FEM_CLOTH_TRY(r.text("linear_solver", solver));
+  Expected<LinearSolverKind> kind = parseLinearSolverKind(solver);
+  if (!kind) return Error{"integrator.linear_solver: " + kind.error()};
+  s.newton.linear.kind = *kind;
+  FEM_CLOTH_TRY(r.number("cg_tolerance", s.newton.linear.cgTolerance));
+  FEM_CLOTH_TRY(r.integer("cg_max_iterations", s.newton.linear.cgMaxIterations));
+  FEM_CLOTH_TRY(r.integer("iterations", s.xpbdIterations));
+  return Status::success();
+}
+
+}  // namespace
+
+Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath) {
+  Scene s;
+  s.sourcePath = sourcePath;
+  MapReader root(doc, "",
+                 {"name", "mesh", "material", "bending", "damping", "gravity", "integrator",
+                  "pins", "forces", "initial", "duration"});
+  if (!doc.IsMap()) return Error{"scene must be a map of keys, got " + describe(doc)};
+  FEM_CLOTH_TRY(root.check());
+  FEM_CLOTH_TRY(root.text("name", s.name));
+  FEM_CLOTH_TRY(readMesh(root.child("mesh"), s));
+
+  MapReader mat(root.child("material"), "material",
+                {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "thickness",
+                 "density"});
+  FEM_CLOTH_TRY(mat.check());
+  FEM_CLOTH_TRY(mat.text("model", s.materialModel));
+  FEM_CLOTH_TRY(mat.optionalNumber("youngs_modulus", s.youngsModulus));
+  FEM_CLOTH_TRY(mat.optionalNumber("poisson_ratio", s.poissonRatio));
+  FEM_CLOTH_TRY(mat.optionalNumber("mu", s.mu));
+  FEM_CLOTH_TRY(mat.optionalNumber("lambda", s.lambda));
+  FEM_CLOTH_TRY(mat.number("thickness", s.thickness));
+  FEM_CLOTH_TRY(mat.number("density", s.density));
+
+  MapReader bend(root.child("bending"), "bending", {"model", "stiffness"});
+  FEM_CLOTH_TRY(bend.check());
+  FEM_CLOTH_TRY(bend.text("model", s.bendingModel));
+  FEM_CLOTH_TRY(bend.number("stiffness", s.bendingStiffness));
+
+  MapReader damp(root.child("damping"), "damping", {"mass", "stiffness"});
+  FEM_CLOTH_TRY(damp.check());
+  FEM_CLOTH_TRY(damp.number("mass", s.damping.massProportional));
+  FEM_CLOTH_TRY(damp.number("stiffness", s.damping.stiffnessProportional));
+
+  FEM_CLOTH_TRY(root.vector("gravity", s.gravity));
+  FEM_CLOTH_TRY(readIntegrator(root.child("integrator"), s));
+  FEM_CLOTH_TRY(root.number("duration", s.duration));
+
+  if (root.has("pins")) {
+    const YAML::Node pins = root.child("pins");
+    if (!pins.IsSequence()) return Error{"pins must be a list"};
+    for (std::size_t i = 0; i < pins.size(); ++i) {
+      const std::string key = "pins[" + std::to_string(i) + "]";
+      MapReader r(pins[i], key,
+                  {"vertices", "grid_vertices", "grid_edge", "offset", "targets", "velocity",
+                   "release_at"});
+      FEM_CLOTH_TRY(r.check());
+      ScenePin p;
+      FEM_CLOTH_TRY(readSelection(r, p.select));
+      FEM_CLOTH_TRY(r.vector("offset", p.offset));
+      FEM_CLOTH_TRY(r.vector("velocity", p.velocity));
+      FEM_CLOTH_TRY(r.number("release_at", p.releaseAt));
+      if (r.has("targets")) {
+        const YAML::Node ts = r.child("targets");
+        if (!ts.IsSequence()) return Error{key + ".targets must be a list of positions"};
+        for (std::size_t k = 0; k < ts.size(); ++k) {
+          Eigen::Vector3d t;
+          FEM_CLOTH_TRY(MapReader::toVector(ts[k], key + ".targets[" + std::to_string(k) + "]", t));
+          p.targets.push_back(t);
+        }
+      }
+      s.pins.push_back(p);
+    }
+  }
+  if (root.has("forces")) {
+    const YAML::Node forces = root.child("forces");
+    if (!forces.IsSequence()) return Error{"forces must be a list"};
+    for (std::size_t i = 0; i < forces.size(); ++i) {
+      const std::string key = "forces[" + std::to_string(i) + "]";
+      MapReader r(forces[i], key,
+                  {"vertices", "grid_vertices", "grid_edge", "force", "start", "duration"});
+      FEM_CLOTH_TRY(r.check());
+      SceneForce f;
+      FEM_CLOTH_TRY(readSelection(r, f.select));
+      FEM_CLOTH_TRY(r.vector("force", f.force));
+      FEM_CLOTH_TRY(r.number("start", f.start));
+      FEM_CLOTH_TRY(r.number("duration", f.duration));
+      s.forces.push_back(f);
+    }
+  }
+  MapReader init(root.child("initial"), "initial", {"positions", "velocity"});
+  FEM_CLOTH_TRY(init.check());
+  FEM_CLOTH_TRY(init.vector("velocity", s.initialVelocity));
+  if (init.has("positions")) {
+    const YAML::Node ps = init.child("positions");
+    if (!ps.IsSequence()) return Error{"initial.positions must be a list of {vertex, position}"};
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+      const std::string key = "initial.positions[" + std::to_string(i) + "]";
+      MapReader r(ps[i], key, {"vertex", "position"});
+      FEM_CLOTH_TRY(r.check());
+      if (!r.has("vertex") || !r.has("position")) return Error{key + " needs vertex and position"};
+      SceneInitialPosition p;
+      FEM_CLOTH_TRY(r.integer("vertex", p.vertex));
+      FEM_CLOTH_TRY(r.vector("position", p.position));
+      s.initialPositions.push_back(p);
+    }
+  }
+  if (Status v = validateScene(s); !v) return Error{v.error()};
+  return s;
+}
+
+Status applySceneOverride(YAML::Node& document, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0) {
+    return Error{"override '" + assignment + "' must look like key.path=value"};
+  }
+  const std::string path = assignment.substr(0, eq);
+  const std::string valueText = assignment.substr(eq + 1);
+  YAML::Node value;
+  try {
+    value = YAML::Load(valueText);
+  } catch (const YAML::Exception& e) {
+    return Error{"override '" + assignment + "': value is not valid YAML (" + e.msg + ")"};
+  }
+  if (!value.IsDefined() || value.IsNull()) {
+    return Error{"override '" + assignment + "' has no value"};
+  }
+  std::vector<std::string> parts;
+  std::stringstream ss(path);
+  for (std::string part; std::getline(ss, part, '.');) {
+    if (part.empty()) return Error{"override key '" + path + "' has an empty component"};
+    parts.push_back(part);
+  }
+  // Walk with fresh handles: yaml-cpp node assignment rebinds, so use a recursive lambda.
+  std::function<Status(YAML::Node, std::size_t)> set = [&](YAML::Node node,
+                                                          std::size_t i) -> Status {
+    const std::string& part = parts[i];
+    const bool last = i + 1 == parts.size();
+    if (node.IsSequence()) {
+      char* end = nullptr;
+      const long index = std::strtol(part.c_str(), &end, 10);
+      if (*end != '\0' || index < 0 || static_cast<std::size_t>(index) >= node.size()) {
+        return Error{"override key '" + path + "': '" + part + "' is not an index of the list (" +
+                     std::to_string(node.size()) + " entries)"};
+      }
+      if (last) {
+        node[static_cast<std::size_t>(index)] = value;
+        return Status::success();
+      }
+      return set(node[static_cast<std::size_t>(index)], i + 1);
+    }
+    if (!node.IsMap() && node.IsDefined() && !node.IsNull()) {
+      return Error{"override key '" + path + "': '" + parts[i - 1] + "' is not a map"};
+    }
+    if (last) {
+      node[part] = value;
+      return Status::success();
+    }
+    YAML::Node child = node[part];
+    if (!child.IsDefined() || child.IsNull()) {
+      node[part] = YAML::Node(YAML::NodeType::Map);
+    }
+    return set(node[part], i + 1);
+  };
+  return set(document, 0);
+}
+
+Expected<YAML::Node> loadSceneDocument(const std::string& path,
+                                       const std::vector<std::string>& overrides) {
+  std::ifstream file(path);
+  if (!file) return Error{"cannot open scene file '" + path + "'"};
+  YAML::Node doc;
+  try {
+    doc = YAML::Load(file);
+  } catch (const YAML::Exception& e) {
+    return Error{path + ": malformed YAML at line " + std::to_string(e.mark.line + 1) +
+                 ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg};
+  }
+  if (!doc.IsDefined() || doc.IsNull()) doc = YAML::Node(YAML::NodeType::Map);
+  for (const std::string& o : overrides) {
+    if (Status s = applySceneOverride(doc, o); !s) return Error{s.error()};
+  }
+  return doc;
+}
+
+Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+  Expected<YAML::Node> doc = loadSceneDocument(path, overrides);
+  if (!doc) return Error{doc.error()};
+  Expected<Scene> scene = parseScene(*doc, path);
+  if (!scene) return Error{path + ": " + scene.error()};
+  return scene;
+}
+
+std::string sceneDocumentToString(const YAML::Node& document) {
+  YAML::Emitter out;
+  out << document;
+  return out.c_str();
+}
+
+}  // namespace fem_cloth

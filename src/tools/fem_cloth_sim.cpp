@@ -1,0 +1,263 @@
+// fem_cloth_sim: runs a scene headless (no ROS master) and prints a summary.
+//
+//   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
+//                 [--duration S] [--set key=value]... [--out DIR] [--every N] [--quiet]
+//
+// Exit status: 0 success, 2 bad scene or command line, 3 the simulation failed (the error says
+// why; the outputs hold everything up to the last good state).
+#include <CLI/CLI.hpp>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "fem_cloth/core/membrane.h"
+#include "fem_cloth/core/metrics.h"
+#include "fem_cloth/io/scene_yaml.h"
+
+using namespace fem_cloth;
+
+namespace {
+
+struct Options {
+  std::string scene;
+  std::string integrator;
+  double dt = 0.0;
+  double duration = 0.0;
+  std::vector<std::string> overrides;
+  std::string out;
+  int every = 0;
+  bool quiet = false;
+  bool noOutput = false;
+};
+
+struct Totals {
+  std::uint64_t steps = 0;
+  std::uint64_t newtonIterations = 0;
+  std::uint64_t backtracks = 0;
+  std::uint64_t rollbacks = 0;
+  std::uint64_t substeps = 0;
+  std::uint64_t failures = 0;
+  double maxResidual = 0.0;
+  double minAreaRatio = std::numeric_limits<double>::infinity();
+  double maxStretch = -std::numeric_limits<double>::infinity();
+};
+
+class Progress {
+ public:
+  Progress(double duration, bool enabled)
+      : duration_(duration), enabled_(enabled), tty_(isatty(STDERR_FILENO) != 0),
+        start_(std::chrono::steady_clock::now()), last_(start_) {}
+  void update(double t, std::uint64_t steps) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (std::chrono::duration<double>(now - last_).count() < (tty_ ? 0.5 : 5.0)) return;
+    last_ = now;
+    const double wall = std::chrono::duration<double>(now - start_).count();
+    const double fraction = std::min(t / duration_, 1.0);
+    const double eta = fraction > 0 ? wall * (1.0 - fraction) / fraction : 0.0;
+    std::fprintf(stderr, "%sprogress: t = %.3f / %.3f s (%3.0f%%), %llu steps, %.1f steps/s, ETA %.0f s%s",
+                 tty_ ? "\r" : "", t, duration_, 100 * fraction,
+                 static_cast<unsigned long long>(steps), steps / std::max(wall, 1e-9), eta,
+                 tty_ ? "   " : "\n");
+    dirty_ = tty_;
+  }
+  void finish() {
+    if (dirty_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  double duration_;
+  bool enabled_, tty_, dirty_ = false;
+  std::chrono::steady_clock::time_point start_, last_;
+};
+
+void writeFrame(std::ofstream& trajectory, const Simulator& sim) {
+  const State& s = sim.state();
+  trajectory << std::setprecision(17) << s.time << ',' << s.step;
+  for (Eigen::Index i = 0; i < s.x.size(); ++i) trajectory << ',' << s.x[i];
+  trajectory << '\n';
+}
+
+void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stretch, double minJ) {
+  const EnergyReport e = sim.energies();
+  const StepReport& r = sim.lastReport();
+  energy << std::setprecision(12) << sim.time() << ',' << sim.state().step << ',' << e.kinetic
+         << ',' << e.strain << ',' << e.bending << ',' << e.gravity << ',' << e.externalWork << ','
+         << e.pinWork << ',' << e.dissipated << ',' << e.total << ',' << e.balanceError << ','
+         << stretch.mean << ',' << stretch.max << ',' << minJ << ',' << r.substeps << ','
+         << r.newtonIterations << ',' << r.residual << ',' << r.lineSearchBacktracks << ','
+         << r.rollbacks << '\n';
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{
+      "Runs a fem_cloth scene headless (no ROS master needed) and prints a summary.\n"
+      "Writes trajectory.csv (time, step, then x y [z] of every vertex) and energy.csv\n"
+      "(energies in J, stretch, solver statistics) to the output folder."};
+  app.add_option("--scene", opt.scene, "scene YAML file (see docs/scenes.md)")->required();
+  app.add_option("--integrator", opt.integrator,
+                 "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd");
+  app.add_option("--dt", opt.dt, "override integrator.dt (s)");
+  app.add_option("--duration", opt.duration, "override the scene's duration (s)");
+  app.add_option("--set", opt.overrides, "override any scene key: key.path=value (repeatable)");
+  app.add_option("--out", opt.out, "output folder (default: fem_cloth_output/<scene name>)");
+  app.add_flag("--no-output", opt.noOutput, "write no files, only the summary");
+  app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)");
+  app.add_flag("--quiet,-q", opt.quiet, "no progress line");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+
+  std::vector<std::string> overrides = opt.overrides;
+  if (!opt.integrator.empty()) overrides.push_back("integrator.name=" + opt.integrator);
+  if (opt.dt != 0.0) {
+    std::ostringstream s;
+    s << std::setprecision(17) << "integrator.dt=" << opt.dt;
+    overrides.push_back(s.str());
+  }
+  if (opt.duration != 0.0) {
+    std::ostringstream s;
+    s << std::setprecision(17) << "duration=" << opt.duration;
+    overrides.push_back(s.str());
+  }
+  Expected<Scene> scene = loadScene(opt.scene, overrides);
+  if (!scene) {
+    std::cerr << "fem_cloth_sim: " << scene.error() << '\n';
+    return 2;
+  }
+  Expected<Simulation> built = buildSimulation(*scene);
+  if (!built) {
+    std::cerr << "fem_cloth_sim: " << opt.scene << ": " << built.error() << '\n';
+    return 2;
+  }
+  Simulation& sim = *built;
+  for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << w << '\n';
+  Simulator& simulator = *sim.simulator;
+  const double dt = scene->dt;
+  const std::uint64_t totalSteps =
+      static_cast<std::uint64_t>(std::llround(std::ceil(scene->duration / dt - 1e-9)));
+  const int every = opt.every > 0 ? opt.every : std::max(1, static_cast<int>(std::lround(1.0 / (60.0 * dt))));
+
+  std::ofstream trajectory, energy;
+  std::string outDir;
+  if (!opt.noOutput) {
+    outDir = opt.out.empty() ? "fem_cloth_output/" + scene->name : opt.out;
+    std::error_code ec;
+    std::filesystem::create_directories(outDir, ec);
+    if (ec) {
+      std::cerr << "fem_cloth_sim: cannot create output folder '" << outDir << "': " << ec.message() << '\n';
+      return 2;
+    }
+    trajectory.open(outDir + "/trajectory.csv");
+    energy.open(outDir + "/energy.csv");
+    if (!trajectory || !energy) {
+      std::cerr << "fem_cloth_sim: cannot write to '" << outDir << "'\n";
+      return 2;
+    }
+    trajectory << "time,step";
+    const char* axes = "xyz";
+    for (Index i = 0; i < simulator.model().numVertices(); ++i) {
+      for (int k = 0; k < simulator.dim(); ++k) trajectory << ',' << axes[k] << i;
+    }
+    trajectory << '\n';
+    energy << "time,step,kinetic,strain,bending,gravity,external_work,pin_work,dissipated,total,"
+              "balance_error,mean_stretch,max_stretch,min_area_ratio,substeps,newton_iterations,"
+              "residual,backtracks,rollbacks\n";
+  }
+
+  const EdgeStretchMeter stretchMeter(*sim.mesh);
+  const EnergyReport initialEnergy = simulator.energies();
+  Totals totals;
+  auto observe = [&](bool write) {
+    const EdgeStretch st = stretchMeter.measure(simulator.state().x);
+    const double minJ = minAreaRatio(simulator.model().mesh(), simulator.model().rest(), simulator.state().x);
+    totals.minAreaRatio = std::min(totals.minAreaRatio, minJ);
+    totals.maxStretch = std::max(totals.maxStretch, st.max);
+    if (write && !opt.noOutput) {
+      writeFrame(trajectory, simulator);
+      writeEnergy(energy, simulator, st, minJ);
+    }
+  };
+  observe(true);
+
+  std::string failure;
+  Progress progress(scene->duration, !opt.quiet);
+  const auto wallStart = std::chrono::steady_clock::now();
+  for (std::uint64_t k = 0; k < totalSteps; ++k) {
+    if (Status s = sim.script.applyDue(simulator); !s) {
+      failure = s.error();
+      break;
+    }
+    const StepReport r = simulator.step();
+    if (!r.ok) {
+      ++totals.failures;
+      totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+      failure = r.error;
+      break;
+    }
+    ++totals.steps;
+    totals.newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
+    totals.backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
+    totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+    totals.substeps += static_cast<std::uint64_t>(r.substeps);
+    totals.maxResidual = std::max(totals.maxResidual, r.residual);
+    const bool write = (k + 1) % static_cast<std::uint64_t>(every) == 0 || k + 1 == totalSteps;
+    observe(write);
+    progress.update(simulator.time(), totals.steps);
+  }
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+  progress.finish();
+  if (!opt.noOutput && !failure.empty()) observe(true);
+
+  const EnergyReport e = simulator.energies();
+  const EdgeStretch st = stretchMeter.measure(simulator.state().x);
+  std::ostringstream summary;
+  summary << std::setprecision(4);
+  summary << "scene:        " << scene->name << " (" << opt.scene << "), "
+          << simulator.model().numVertices() << " vertices, " << simulator.model().mesh().numTriangles()
+          << " triangles, model " << scene->materialModel << '\n';
+  summary << "integrator:   " << simulator.integrator().name() << ", dt " << dt << " s";
+  if (scene->integrator == "xpbd") summary << ", " << scene->xpbdIterations << " iterations";
+  summary << '\n';
+  summary << "steps:        " << totals.steps << " of " << totalSteps << " (" << totals.substeps
+          << " substeps), simulated " << simulator.time() << " s in " << wall << " s wall"
+          << " (real-time factor " << simulator.time() / std::max(wall, 1e-9) << ")\n";
+  summary << "energy (J):   kinetic " << e.kinetic << ", strain " << e.strain << ", bending "
+          << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
+  summary << "work (J):     external " << e.externalWork << ", pins " << e.pinWork
+          << ", dissipated by damping " << e.dissipated << '\n';
+  const double energyScale =
+      std::max({std::abs(initialEnergy.total), std::abs(e.gravity), std::abs(e.total), 1e-12});
+  summary << "balance:      error " << e.balanceError << " J (" << 100.0 * e.balanceError / energyScale
+          << " % of the energy scale " << energyScale << " J)\n";
+  summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
+          << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
+  summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
+  summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
+          << (totals.steps ? static_cast<double>(totals.newtonIterations) / totals.steps : 0.0)
+          << " per step), max residual " << totals.maxResidual << " N, " << totals.backtracks
+          << " line-search backtracks, " << totals.rollbacks << " rollbacks, " << totals.failures
+          << " failures\n";
+  if (!opt.noOutput) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
+  std::cout << summary.str();
+  if (!failure.empty()) {
+    std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: " << failure << '\n';
+    return 3;
+  }
+  return 0;
+}
