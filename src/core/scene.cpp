@@ -5,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include "fem_cloth/core/bending.h"
 #include "fem_cloth/core/membrane.h"
 
 namespace fem_cloth {
@@ -78,7 +79,8 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(positiveFinite(s.thickness, "material.thickness", "m"));
   FEM_CLOTH_CHECK(positiveFinite(s.density, "material.density", "kg/m^3"));
   FEM_CLOTH_CHECK(nonNegativeFinite(s.bendingStiffness, "bending.stiffness", "N m"));
-  if (s.bendingModel != "quadratic" && s.bendingModel != "dihedral") {
+  if (std::find(bendingModelNames().begin(), bendingModelNames().end(), s.bendingModel) ==
+      bendingModelNames().end()) {
     return Error{"bending.model must be quadratic or dihedral, got '" + s.bendingModel + "'"};
   }
   FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.massProportional, "damping.mass", "1/s"));
@@ -277,8 +279,11 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   sim.model = std::make_shared<Model>(mesh, rest,
                                        lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
   sim.model->addTerm(makeMembraneTerm(mesh, rest, *material), TermKind::Membrane);
-  if (scene.bendingStiffness > 0.0) {
-    return Error{"bending.stiffness: bending is not available in this build yet; set it to 0"};
+  Expected<std::unique_ptr<EnergyTerm>> bending =
+      makeBendingTerm(*mesh, *rest, scene.bendingModel, scene.bendingStiffness);
+  if (!bending) return Error{"bending: " + bending.error()};
+  if (bending.value() != nullptr) {
+    sim.model->addTerm(std::move(bending).value(), TermKind::Bending);
   }
 
   SimulatorSettings settings;

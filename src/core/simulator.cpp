@@ -25,7 +25,24 @@ Simulator::Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> i
   previousPinForce_ = VectorX::Zero(n);
   state_.x = model_->mesh().restPositions;
   state_.v = VectorX::Zero(n);
+  const VectorX& X = model_->mesh().restPositions;
+  Eigen::VectorXd lo = X.head(d), hi = X.head(d);
+  for (Index i = 1; i < model_->numVertices(); ++i) {
+    lo = lo.cwiseMin(X.segment(d * i, d));
+    hi = hi.cwiseMax(X.segment(d * i, d));
+  }
+  sizeScale_ = std::max(settings_.gravity.norm(), 9.81) * model_->totalMass() * (hi - lo).norm();
   snapshotInitial();
+}
+
+double Simulator::mechanicalEnergy() {
+  const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
+  const EvalResult elastic = model_->evaluate(state_.x, EvalRequest{});
+  return kinetic + elastic.energy - gravityForce_.dot(state_.x);
+}
+
+double Simulator::energyScale(double mechanical) const {
+  return std::max({sizeScale_, std::abs(mechanical + gravityForce_.dot(state_.x)), 1e-12});
 }
 
 void Simulator::snapshotInitial() {
@@ -80,6 +97,8 @@ void Simulator::reset() {
   pinForce_.setZero();
   previousPinForce_.setZero();
   lastReport_ = StepReport();
+  currentSubsteps_ = std::max(settings_.minSubsteps, 1);
+  cleanSteps_ = 0;
 }
 
 Status Simulator::checkVertex(Index vertex) const {
@@ -219,9 +238,36 @@ StepReport Simulator::step(double dt) {
   input.damping = settings_.damping;
 
   backup_ = state_;
-  int substeps = std::max(settings_.minSubsteps, 1);
+  const double tolerance = integrator_->energyGrowthTolerance();
+  const bool guard = settings_.energyGuard && tolerance > 0.0;
+  const double energyStart = guard ? mechanicalEnergy() : 0.0;
+  const double scale = guard ? energyScale(energyStart) : 0.0;
+  const int minSubsteps = std::max(settings_.minSubsteps, 1);
+  if (currentSubsteps_ > minSubsteps && cleanSteps_ >= kRelaxAfter) {
+    currentSubsteps_ = std::max(minSubsteps, currentSubsteps_ / 2);
+    cleanSteps_ = 0;
+  }
+  int substeps = std::max(minSubsteps, currentSubsteps_);
   for (int attempt = 0; attempt <= settings_.maxRetries; ++attempt) {
     StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
+    if (r.ok && guard && state_.x.allFinite() && state_.v.allFinite()) {
+      // Work put in during the step by the (constant) forces and the pins, as an upper bound.
+      double inputWork = 0.0;
+      for (Index i = 0; i < model_->numDofs(); ++i) {
+        const double dx = state_.x[i] - backup_.x[i];
+        inputWork += std::abs(externalForce_[i] * dx);
+        if (pinned_[i]) inputWork += std::abs(pinForce_[i] * dx) + std::abs(previousPinForce_[i] * dx);
+      }
+      const double energyEnd = mechanicalEnergy();
+      if (!(energyEnd <= energyStart + inputWork + tolerance * scale)) {
+        std::ostringstream msg;
+        msg << integrator_->name() << ": energy grew from " << energyStart << " J to "
+            << energyEnd << " J in one step with " << r.substeps
+            << " substeps (more than the work put in; blow-up)";
+        r.ok = false;
+        r.error = msg.str();
+      }
+    }
     total.substeps = r.substeps;
     total.newtonIterations += r.newtonIterations;
     total.lineSearchBacktracks += r.lineSearchBacktracks;
@@ -232,6 +278,12 @@ StepReport Simulator::step(double dt) {
       total.dissipated = r.dissipated;
       total.ok = true;
       total.error.clear();
+      if (attempt > 0) {
+        currentSubsteps_ = substeps;
+        cleanSteps_ = 0;
+      } else {
+        ++cleanSteps_;
+      }
       break;
     }
     total.ok = false;

@@ -21,6 +21,9 @@ struct SimulatorSettings {
   double dt = 1.0 / 60.0;  ///< s, the step taken by step()
   int minSubsteps = 1;     ///< substeps every step starts with
   int maxRetries = 4;      ///< rollbacks per step, each doubling the substeps
+  /// Enables the energy-growth guard of integrators that have one (symplectic Euler, XPBD:
+  /// Integrator::energyGrowthTolerance); off only for experiments that want to see a blow-up.
+  bool energyGuard = true;
 };
 
 /// Energies in joules. The balance error is the drift of
@@ -95,6 +98,8 @@ class Simulator {
 
  private:
   Status checkVertex(Index vertex) const;
+  double mechanicalEnergy();
+  double energyScale(double mechanical) const;
   void rebuildExternalForce();
   void snapshotInitial();
 
@@ -119,6 +124,12 @@ class Simulator {
   VectorX initialPositions_;
   double initialTotal_ = 0.0;
   double externalWork_ = 0.0, pinWork_ = 0.0, dissipated_ = 0.0;
+  double sizeScale_ = 0.0;
+  // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
+  // next steps start with; after kRelaxAfter clean steps the count is halved again.
+  int currentSubsteps_ = 1;
+  int cleanSteps_ = 0;
+  static constexpr int kRelaxAfter = 20;  // total weight x bounding-box diagonal of the rest mesh (J)
   // What reset() restores.
   struct Initial {
     State state;

@@ -6,32 +6,6 @@
 
 namespace fem_cloth {
 
-namespace {
-
-// Mechanical energy: kinetic + elastic + gravitational (relative to the origin), J.
-double mechanicalEnergy(Model& model, const State& s, const VectorX& gravityForce) {
-  const double kinetic = 0.5 * s.v.dot(model.dofMasses().cwiseProduct(s.v));
-  const EvalResult elastic = model.evaluate(s.x, EvalRequest{});
-  return kinetic + elastic.energy - gravityForce.dot(s.x);
-}
-
-// Energy scale used to judge growth: total weight times the size of the cloth, or the kinetic
-// energy when larger. Never zero.
-double energyScale(Model& model, const State& s, const VectorX& gravityForce) {
-  const int d = model.dim();
-  Eigen::VectorXd lo = s.x.head(d), hi = s.x.head(d);
-  for (Index i = 1; i < model.numVertices(); ++i) {
-    lo = lo.cwiseMin(s.x.segment(d * i, d));
-    hi = hi.cwiseMax(s.x.segment(d * i, d));
-  }
-  const double size = (hi - lo).norm();
-  const double weight = std::max(gravityForce.norm(), model.totalMass() * 9.81);
-  const double kinetic = 0.5 * s.v.dot(model.dofMasses().cwiseProduct(s.v));
-  return std::max({weight * size, kinetic, 1e-12});
-}
-
-}  // namespace
-
 double SymplecticEuler::stableStep(Model& model, const VectorX& x, const std::vector<char>& pinned,
                                    const Damping& damping) {
   SparseHessian& H = model.hessianPattern();
@@ -106,10 +80,6 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
     return report;
   }
 
-  const bool checkBlowUp = settings_.blowUpTolerance > 0.0;
-  const double energyStart = checkBlowUp ? mechanicalEnergy(model, state, *input.gravityForce) : 0.0;
-  const double scale = checkBlowUp ? energyScale(model, state, *input.gravityForce) : 0.0;
-
   force_.resize(n);
   gradient_.resize(n);
   velocityStart_.resize(n);
@@ -121,7 +91,6 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
   const double alpha = input.damping.massProportional;
   const double beta = input.damping.stiffnessProportional;
   const VectorX& target = *input.pinTarget;
-  double inputWork = 0.0;
   for (int s = 0; s < substeps; ++s) {
     gradient_.setZero();
     EvalRequest request;
@@ -161,7 +130,6 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
         state.x[i] = xNew;
       } else {
         state.v[i] = (state.v[i] + h * force_[i] / mass[i]) / (1.0 + h * alpha);
-        inputWork += h * state.v[i] * (*input.externalForce)[i];
         state.x[i] += h * state.v[i];
       }
     }
@@ -182,25 +150,6 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
   }
   report.substeps = substeps;
   report.dtUsed = h;
-  if (checkBlowUp) {
-    const double energyEnd = mechanicalEnergy(model, state, *input.gravityForce);
-    // Pins may put energy in: count their work from the reaction just computed.
-    double pinWork = 0.0;
-    for (Index i = 0; i < n; ++i) {
-      if (pinned[i]) pinWork += std::abs(pinForce[i] * state.v[i] * dt);
-    }
-    const double allowed = energyStart + std::abs(inputWork) + pinWork +
-                           settings_.blowUpTolerance * std::max(scale, std::abs(energyStart));
-    if (!(energyEnd <= allowed)) {
-      std::ostringstream msg;
-      msg << "symplectic_euler: energy grew from " << energyStart << " J to " << energyEnd
-          << " J in one step (blow-up)";
-      report.ok = false;
-      report.error = msg.str();
-      stableStep_ = 0.0;  // re-estimate on retry
-      return report;
-    }
-  }
   return report;
 }
 

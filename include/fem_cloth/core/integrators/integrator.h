@@ -78,6 +78,12 @@ class Integrator {
                           VectorX& pinForce) = 0;
   /// Called when the topology, pins or stiffness change enough to redo set-up work.
   virtual void invalidate() {}
+  /// For steppers that can blow up: how much the mechanical energy (kinetic + elastic +
+  /// gravitational) may grow in one step beyond the work put in by forces and pins, as a
+  /// fraction of the energy scale (the larger of total weight x cloth size and the energy
+  /// itself). A step that grows more is rolled back and retried with more substeps. 0: no
+  /// guard (implicit steppers: their line search on the incremental potential rules growth out).
+  virtual double energyGrowthTolerance() const { return 0.0; }
 };
 
 }  // namespace fem_cloth
