@@ -74,6 +74,7 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
                                     int minSubsteps, VectorX& pinForce) {
   StepReport report;
   const int substeps = std::max(minSubsteps, 1);
+  report.substeps = substeps;
   const double h = dt / substeps;
   for (int s = 0; s < substeps; ++s) {
     if (!substep(input, state, h, substeps - s, pinForce, report)) {
