@@ -323,7 +323,7 @@ class Auditor {
       return c;
     }
     const DefGrad<2> T = DefGrad<2>::Identity();
-    c.measured = -model_.pk1(F, T)(1, 1);
+    c.measured = -model_.pk1(F, T)(1, 1) + 0.0;  // + 0.0 reports a zero stress as 0, not -0
     c.pass = c.measured > kRestoringTolerance * stiffness_;
     return c;
   }
