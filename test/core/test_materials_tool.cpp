@@ -3,6 +3,7 @@
 // against closed forms along F = diag(1, s), the plot, audit's verdicts, and the command line.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <Eigen/Eigenvalues>
 #include <cmath>
@@ -45,9 +46,10 @@ std::string quoted(const std::string& s) { return "'" + s + "'"; }
 class MaterialsTool : public ::testing::Test {
  protected:
   void SetUp() override {
+    // The process id keeps concurrent runs of the suite (other build folders) apart.
     dir_ = fs::path(::testing::TempDir()) /
-           ("fem_cloth_materials_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("fem_cloth_materials_" + std::to_string(getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
