@@ -142,9 +142,9 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
       return tf2::transformToEigen(latest);
     }
     if (why) {
-      *why = "frame '" + frame + "' is stale: its newest transform (t = " +
-             str(latest.header.stamp.toSec()) + " s) is " + str(age) + " s older than t = " +
-             str(at.toSec()) + " s (limit tf_timeout = " + str(settings_.tfTimeout) + " s)";
+      *why = "frame '" + frame + "' is stale: its newest transform is " + str(age) +
+             " s older than the time it is needed at (tf_timeout = " +
+             str(settings_.tfTimeout) + " s)";
     }
   } catch (const tf2::TransformException& e) {
     if (why) *why = "frame '" + frame + "' is not connected to '" + target + "': " + e.what();

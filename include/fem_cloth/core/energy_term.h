@@ -19,6 +19,11 @@ enum class HessianMode {
 
 constexpr double kInfiniteEnergy = std::numeric_limits<double>::infinity();
 
+/// Element loops run in parallel (OpenMP) only from this many elements on: below it, waking the
+/// thread team costs more than the work, and on a busy machine libgomp's spinning threads make
+/// small parallel loops many times slower than serial ones.
+constexpr int kParallelElementThreshold = 4096;
+
 struct EvalRequest {
   bool energy = true;              ///< compute the energy (else the result's energy is 0)
   VectorX* gradient = nullptr;     ///< if set, += dE/dx
