@@ -290,6 +290,7 @@ StepReport Simulator::step(double dt) {
     total.error = r.ok ? "the state became non-finite" : r.error;
     state_ = backup_;
     integrator_->invalidate();
+    if (!r.retryable) break;
     if (attempt < settings_.maxRetries) {
       ++total.rollbacks;
       substeps = std::max(substeps, r.substeps) * 2;

@@ -4,7 +4,9 @@
 // Every step either succeeds or leaves the state exactly as it was: a failed attempt
 // (non-finite values, no Newton convergence, explicit blow-up, an element leaving its material's
 // domain) is rolled back and retried with twice the substeps, up to maxRetries times; after that
-// step() returns the error and the simulator keeps its last good state.
+// step() returns the error and the simulator keeps its last good state. A refusal that more
+// substeps cannot change (StepReport::retryable false: symplectic Euler asked not to substep
+// past its stability bound, XPBD on a term without constraint form) is returned at once.
 #pragma once
 
 #include <memory>

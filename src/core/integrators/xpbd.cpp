@@ -49,6 +49,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
         term.constraintsPerElement() > EnergyTerm::kMaxConstraintsPerElement ||
         term.verticesPerElement() * d > EnergyTerm::kMaxElementDofs) {
       report.ok = false;
+      report.retryable = false;
       report.error = "xpbd: energy term '" + term.name() +
                      "' has no constraint form; use an implicit integrator";
       return report;
