@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <functional>
 #include <stdexcept>
@@ -156,6 +157,21 @@ inline std::vector<double> areaRatios(const Mesh& mesh, const VectorX& x) {
   return J;
 }
 
+/// Largest edge stretch l / L - 1 over all triangle edges.
+inline double maxEdgeStretch(const Mesh& mesh, const VectorX& x) {
+  const int d = mesh.dim;
+  double worst = -1.0;
+  for (const Triangle& tri : mesh.triangles) {
+    for (int e = 0; e < 3; ++e) {
+      const Index a = tri[e], b = tri[(e + 1) % 3];
+      const double l = (x.segment(d * a, d) - x.segment(d * b, d)).norm();
+      const double L = (mesh.restPositions.segment(d * a, d) - mesh.restPositions.segment(d * b, d)).norm();
+      worst = std::max(worst, l / L - 1.0);
+    }
+  }
+  return worst;
+}
+
 inline double minAreaRatio(const Mesh& mesh, const VectorX& x) {
   double m = std::numeric_limits<double>::infinity();
   for (double J : areaRatios(mesh, x)) m = std::min(m, J);
@@ -173,6 +189,49 @@ inline double numberAfter(const std::string& text, const std::string& marker) {
   } catch (const std::exception&) {
     return std::nan("");
   }
+}
+
+/// Natural angular frequencies (rad/s, ascending) of small oscillations about x with the
+/// vertices in `fixed` held: the square roots of the eigenvalues of M^-1/2 K M^-1/2, with the
+/// stiffness K by central differences of the model's gradient (dense: small meshes only).
+inline std::vector<double> naturalFrequencies(Model& model, const VectorX& x,
+                                              const std::vector<Index>& fixed = {}) {
+  const Index n = model.numDofs();
+  const int d = model.dim();
+  auto gradient = [&](const VectorX& at) {
+    VectorX g = VectorX::Zero(n);
+    EvalRequest request;
+    request.energy = false;
+    request.gradient = &g;
+    model.evaluate(at, request);
+    return g;
+  };
+  std::vector<char> isFixed(n, 0);
+  for (Index v : fixed) {
+    for (int k = 0; k < d; ++k) isFixed[d * v + k] = 1;
+  }
+  std::vector<Index> freeDofs;
+  for (Index i = 0; i < n; ++i) {
+    if (!isFixed[i]) freeDofs.push_back(i);
+  }
+  const Index m = static_cast<Index>(freeDofs.size());
+  Eigen::MatrixXd K(m, m);
+  const double eps = 1e-6;
+  for (Index c = 0; c < m; ++c) {
+    VectorX xp = x, xm = x;
+    xp[freeDofs[c]] += eps;
+    xm[freeDofs[c]] -= eps;
+    const VectorX column = (gradient(xp) - gradient(xm)) / (2.0 * eps);
+    for (Index r = 0; r < m; ++r) {
+      K(r, c) = column[freeDofs[r]] / std::sqrt(model.dofMasses()[freeDofs[r]] *
+                                                 model.dofMasses()[freeDofs[c]]);
+    }
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> solver(0.5 * (K + K.transpose()),
+                                                              Eigen::EigenvaluesOnly);
+  std::vector<double> omega;
+  for (Index i = 0; i < m; ++i) omega.push_back(std::sqrt(std::max(solver.eigenvalues()[i], 0.0)));
+  return omega;
 }
 
 }  // namespace fem_cloth::test
