@@ -6,11 +6,12 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <unistd.h>
 
+#include "../temp_dir.h"
 #include "fem_cloth/io/scene_yaml.h"
 
 using namespace fem_cloth;
+using fem_cloth::test::TempDir;
 
 namespace {
 
@@ -62,25 +63,6 @@ std::string variant(const std::string& path, const std::string& value) {
   out << doc;
   return out.c_str();
 }
-
-/// A scratch folder of this process, removed at the end.
-class TempDir {
- public:
-  TempDir()
-      : path_(std::filesystem::temp_directory_path() /
-              ("fem_cloth_test_scene_yaml_" + std::to_string(::getpid()))) {
-    std::filesystem::create_directories(path_);
-  }
-  ~TempDir() { std::filesystem::remove_all(path_); }
-  std::string write(const std::string& name, const std::string& text) const {
-    const std::string file = (path_ / name).string();
-    std::ofstream(file) << text;
-    return file;
-  }
-
- private:
-  std::filesystem::path path_;
-};
 
 }  // namespace
 
@@ -166,7 +148,7 @@ TEST(SceneYaml, BuildErrorsNameTheirKey) {
 }
 
 TEST(SceneYaml, FilesMalformedOrMissing) {
-  const TempDir dir;
+  const TempDir dir("fem_cloth_test_scene_yaml");
   const std::string bad = dir.write("bad.yaml", "name: bad\nmesh: [unclosed\n");
   Expected<Scene> scene = loadScene(bad);
   ASSERT_FALSE(scene.ok());
