@@ -363,3 +363,100 @@ TEST(EnergyBalance, ExternalWorkIsForceTimesDisplacement) {
     }
   }
 }
+
+// ---------------------------------------------------------------------------------------------
+// Scripted commands, reset, bad input
+// ---------------------------------------------------------------------------------------------
+
+// A scene's timed commands: a pin released at release_at and a force acting from `start` for
+// `duration` (N, s). The pin holds until the step that starts at its release time; the force
+// acts in the steps that start at 0.05, 0.06 and 0.07 s; on a free cloth without gravity it
+// adds exactly F x duration to the momentum (symplectic Euler adds h F per step).
+TEST(SceneScript, ReleasesPinsAndStartsForcesOnTime) {
+  Scene scene = clothScene("symplectic_euler");
+  scene.gravity = Eigen::Vector3d::Zero();
+  SceneForce force;
+  force.select.vertices = {24};
+  force.force = Eigen::Vector3d(0.0, 0.0, 2.0);
+  force.start = 0.05;
+  force.duration = 0.03;
+  scene.forces = {force};
+  Simulation free = mustBuild(scene);
+  ASSERT_EQ(run(free, 20), "");
+  EXPECT_NEAR(momentum(free.simulator->model(), free.simulator->state().v).z(), 2.0 * 0.03,
+              1e-12);
+
+  ScenePin pin;
+  pin.select.vertices = {0};
+  pin.releaseAt = 0.1;
+  scene.pins = {pin};
+  Simulation sim = mustBuild(scene);
+  Simulator& s = *sim.simulator;
+  ASSERT_EQ(run(sim, 20, [&](int n, const StepReport&) {
+              const double start = (n - 1) * scene.dt;  // of the step just taken
+              EXPECT_EQ(s.isPinned(0), start < 0.1 - 1e-9) << "step " << n;
+              EXPECT_EQ(s.externalForce()[3 * 24 + 2], (n >= 6 && n <= 8) ? 2.0 : 0.0)
+                  << "step " << n;
+            }),
+            "");
+}
+
+// reset() returns to the initial state with its pins and forces, and the same commands then
+// give the same trajectory bit for bit.
+class Reset : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Reset, ReproducesTheRunBitForBit) {
+  Scene scene = clothScene(GetParam());
+  ScenePin moving;
+  moving.select.gridVertices = {{0, 0}};
+  moving.velocity = Eigen::Vector3d(0.0, 0.0, 0.3);
+  scene.pins = {moving};
+  Simulation sim = mustBuild(scene);
+  Simulator& s = *sim.simulator;
+  ASSERT_TRUE(s.applyForce(12, Eigen::Vector3d(0.5, 0.0, 0.0)).ok());
+  const VectorX x0 = s.state().x;
+  ASSERT_TRUE(s.setInitialState(x0).ok());  // the force now belongs to the initial setup
+  auto trajectory = [&] {
+    std::vector<VectorX> xs;
+    EXPECT_EQ(run(sim, 15, [&](int, const StepReport&) { xs.push_back(s.state().x); }), "");
+    return xs;
+  };
+  const std::vector<VectorX> first = trajectory();
+  ASSERT_TRUE(s.pin(5, vertexPosition(s, 5)).ok());
+  s.clearForces();
+  s.reset();
+  sim.script.rewind();
+  EXPECT_EQ(s.time(), 0.0);
+  EXPECT_EQ(s.state().x, x0);
+  EXPECT_EQ(s.pinnedVertices(), std::vector<Index>{0});
+  EXPECT_EQ(s.externalForce()[3 * 12], 0.5);
+  EXPECT_EQ(s.energies().externalWork, 0.0);
+  const std::vector<VectorX> second = trajectory();
+  ASSERT_EQ(first.size(), second.size());
+  for (std::size_t k = 0; k < first.size(); ++k) {
+    EXPECT_TRUE(first[k] == second[k]) << "step " << k + 1;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllIntegrators, Reset, ::testing::ValuesIn(allIntegrators()));
+
+TEST(Commands, RejectBadStepsAndInitialStates) {
+  Simulation sim = mustBuild(clothScene("backward_euler"));
+  Simulator& s = *sim.simulator;
+  const State before = s.state();
+  for (double dt : {0.0, -0.01, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    const StepReport r = s.step(dt);
+    EXPECT_FALSE(r.ok) << dt;
+    EXPECT_NE(r.error.find("time step"), std::string::npos) << r.error;
+    EXPECT_EQ(s.state().x, before.x);
+    EXPECT_EQ(s.time(), 0.0);
+  }
+  const Index n = s.model().numDofs();
+  expectRejected(s.setInitialState(VectorX::Zero(n - 1)),
+                 {std::to_string(n - 1) + " entries", "expected " + std::to_string(n)});
+  expectRejected(s.setInitialState(before.x, VectorX::Zero(3)), {"velocities", "3 entries"});
+  VectorX bad = before.x;
+  bad[4] = std::nan("");
+  expectRejected(s.setInitialState(bad), {"non-finite"});
+  EXPECT_EQ(s.state().x, before.x);
+}
