@@ -1,6 +1,6 @@
 # Shared set-up for fem_cloth's scripts. Source it; it defines:
 #   FEM_CLOTH_ROOT   the package (repository) root
-#   FEM_CLOTH_BUILD  the standalone catkin build folder (default: $FEM_CLOTH_ROOT/build)
+#   FEM_CLOTH_BUILD  the standalone catkin build folder (default: $FEM_CLOTH_ROOT/catkin_build)
 #   fem_cloth_build  configure and build (devel space in $FEM_CLOTH_BUILD/devel)
 #   fem_cloth_env    source the devel space's setup.bash
 #
@@ -9,7 +9,8 @@
 # explicitly which interpreter to use.
 
 FEM_CLOTH_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
-FEM_CLOTH_BUILD="${FEM_CLOTH_BUILD:-$FEM_CLOTH_ROOT/build}"
+# Not "build": rosrun ignores executables below <package>/build/.
+FEM_CLOTH_BUILD="${FEM_CLOTH_BUILD:-$FEM_CLOTH_ROOT/catkin_build}"
 export PATH="/usr/bin:/bin:/usr/sbin:/sbin:$PATH"
 unset PYTHONHOME PYTHONPATH VIRTUAL_ENV
 export PYENV_VERSION=system

@@ -254,7 +254,7 @@ QuadraticBending::QuadraticBending(const Mesh& mesh, const RestState& rest, doub
 EvalResult QuadraticBending::evaluate(const VectorX& x, const EvalRequest& request) {
   const Index m = static_cast<Index>(hinges_.size());
   const bool wantGradient = request.gradient != nullptr;
-#pragma omp parallel for schedule(static) if (m >= kMinElementsForThreads)
+#pragma omp parallel for schedule(static) if (m >= kParallelElementThreshold)
   for (Index h = 0; h < m; ++h) {
     const Vector3d curvatureNormal = gather(x, h) * stencils_[h];
     energy_[h] = 0.5 * weights_[h] * curvatureNormal.squaredNorm();
@@ -330,7 +330,7 @@ EvalResult DihedralBending::evaluate(const VectorX& x, const EvalRequest& reques
   const bool wantGradient = request.gradient != nullptr;
   const bool wantHessian = request.hessian != nullptr;
   const bool project = request.hessianMode == HessianMode::Projected;
-#pragma omp parallel for schedule(static) if (m >= kMinElementsForThreads)
+#pragma omp parallel for schedule(static) if (m >= kParallelElementThreshold)
   for (Index h = 0; h < m; ++h) {
     double theta = 0.0;
     HingeVector dtheta;

@@ -77,7 +77,7 @@ class MembraneTerm final : public EnergyTerm {
     const bool wantGradient = request.gradient != nullptr;
     const bool wantHessian = request.hessian != nullptr;
     const bool project = request.hessianMode == HessianMode::Projected;
-#pragma omp parallel for schedule(static) if (m >= kMinElementsForThreads)
+#pragma omp parallel for schedule(static) if (m >= kParallelElementThreshold)
     for (Index t = 0; t < m; ++t) {
       const DefGrad<D> F = deformationGradient<D>(*mesh_, *rest_, x, t);
       const DefGrad<D>& T = frames_[t];

@@ -19,12 +19,10 @@ enum class HessianMode {
 
 constexpr double kInfiniteEnergy = std::numeric_limits<double>::infinity();
 
-/// Element loops run on several threads (OpenMP) only from this many elements on. Below it a
-/// loop's work (about a microsecond per element) is smaller than the cost of a parallel region,
-/// and when other processes keep the cores busy every region waits for a descheduled thread for
-/// up to a scheduler time slice: a one-triangle scene then stepped 250x slower on 2 threads than
-/// on one (33 s against 0.12 s for 24 runs of the seed triangle).
-constexpr Index kMinElementsForThreads = 256;
+/// Element loops run in parallel (OpenMP) only from this many elements on: below it, waking the
+/// thread team costs more than the work, and on a busy machine libgomp's spinning threads make
+/// small parallel loops many times slower than serial ones.
+constexpr int kParallelElementThreshold = 4096;
 
 struct EvalRequest {
   bool energy = true;              ///< compute the energy (else the result's energy is 0)

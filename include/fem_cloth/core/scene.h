@@ -85,7 +85,7 @@ struct Scene {
   double dt = 0.01;
   int substeps = 1;
   bool autoSubstep = true;  ///< symplectic_euler: substep to stay stable
-  double cflSafety = 0.9;   ///< symplectic_euler
+  double cflSafety = 0.5;   ///< symplectic_euler
   int maxRetries = 4;
   NewtonSettings newton;
   int xpbdIterations = 10;

@@ -52,6 +52,7 @@ class Simulator {
   Model& model() { return *model_; }
   const Model& model() const { return *model_; }
   Integrator& integrator() { return *integrator_; }
+  const Integrator& integrator() const { return *integrator_; }
   const SimulatorSettings& settings() const { return settings_; }
   const State& state() const { return state_; }
   double time() const { return state_.time; }

@@ -10,6 +10,7 @@ namespace fem_cloth {
 namespace {
 
 using Matrix = LinearSolver::Matrix;
+constexpr double kStandardGravity = 9.81;  // m/s^2, the scale of the Newton tolerance
 
 // Replaces the rows and columns of pinned DOFs by the identity scaled by the DOF's mass, so
 // that the pattern is unchanged and the solve leaves pinned DOFs where they are.
@@ -75,6 +76,7 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
                                     int minSubsteps, VectorX& pinForce) {
   StepReport report;
   const int substeps = std::max(minSubsteps, 1);
+  report.substeps = substeps;
   const double h = dt / substeps;
   for (int s = 0; s < substeps; ++s) {
     if (!substep(input, state, h, substeps - s, pinForce, report)) {
@@ -168,7 +170,16 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
   potentialGradient(x_, gElastic_, g_);
   dampingGradient(x_, g_);
 
-  const double tolerance = settings_.tolerance * std::max(model.totalMass() * 9.81, 1e-12);
+  // Convergence: on every free DOF, the unbalanced force |dPhi/dx_i| / c^2 relative to its
+  // vertex's weight at 9.81 m/s^2 (an acceleration error, independent of mesh resolution).
+  // The reported residual is the largest unbalanced force itself (N).
+  auto relativeResidualOf = [&](const VectorX& g) {
+    double worst = 0.0;
+    for (Index i = 0; i < n; ++i) {
+      if (!pinned[i]) worst = std::max(worst, std::abs(g[i]) / (mass[i] * kStandardGravity));
+    }
+    return worst / c2_;
+  };
   auto residualOf = [&](const VectorX& g) {
     double worst = 0.0;
     for (Index i = 0; i < n; ++i) {
@@ -176,20 +187,22 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     }
     return worst / c2_;
   };
-  double residual = residualOf(g_);
+  const double tolerance = settings_.tolerance;
+  double relative = relativeResidualOf(g_);
   int iterations = 0;
   EvalRequest hessianOnly;
   hessianOnly.energy = false;
   hessianOnly.hessian = &hessian;
   hessianOnly.hessianMode = HessianMode::Projected;
-  while (residual > tolerance) {
+  while (relative > tolerance) {
     if (iterations >= settings_.maxIterations) {
       std::ostringstream msg;
-      msg << name() << ": Newton did not converge in " << iterations << " iterations (residual "
-          << residual << " N, tolerance " << tolerance << " N)";
+      msg << name() << ": Newton did not converge in " << iterations << " iterations (largest "
+          << "unbalanced force " << residualOf(g_) << " N = " << relative
+          << " x its vertex's weight, tolerance " << tolerance << ")";
       report.error = msg.str();
       report.newtonIterations += iterations;
-      report.residual = residual;
+      report.residual = residualOf(g_);
       return false;
     }
     ++iterations;
@@ -236,7 +249,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
       if (trial.inDomain) {
         potentialGradient(xTrial_, gElasticTrial_, gTrial_);
         dampingGradient(xTrial_, gTrial_);
-        if (residualOf(gTrial_) < residual) {
+        if (relativeResidualOf(gTrial_) < relative) {
           accepted = true;
           r = trial;
           phi = potential(xTrial_, trial.energy) + dampingEnergy(xTrial_);
@@ -262,23 +275,24 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     }
     if (!accepted) {
       // Round-off can make the decrease unmeasurable very close to the minimum.
-      if (residual <= 1e3 * tolerance) break;
+      if (relative <= 1e3 * tolerance) break;
       std::ostringstream msg;
       msg << name() << ": the line search found no decrease of the incremental potential after "
-          << settings_.maxBacktracks << " backtracks (residual " << residual << " N)";
+          << settings_.maxBacktracks << " backtracks (largest unbalanced force " << residualOf(g_)
+          << " N)";
       report.error = msg.str();
       report.newtonIterations += iterations;
-      report.residual = residual;
+      report.residual = residualOf(g_);
       return false;
     }
     x_.swap(xTrial_);
     gElastic_.swap(gElasticTrial_);
     potentialGradient(x_, gElastic_, g_);
     dampingGradient(x_, g_);
-    residual = residualOf(g_);
+    relative = relativeResidualOf(g_);
   }
   report.newtonIterations += iterations;
-  report.residual = residual;
+  report.residual = residualOf(g_);
   if (!x_.allFinite()) {
     report.error = name() + ": the Newton iterate became non-finite";
     return false;

@@ -71,6 +71,7 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
     }
     substeps = static_cast<int>(std::ceil(dt / usable));
   }
+  report.substeps = substeps;
   if (substeps > settings_.maxSubsteps) {
     std::ostringstream msg;
     msg << "symplectic_euler: dt = " << dt << " s needs " << substeps

@@ -57,6 +57,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
   }
   cacheStiffness(model);
   const int substeps = std::max(minSubsteps, 1) * std::max(settings_.substeps, 1);
+  report.substeps = substeps;
   const double h = dt / substeps;
   const double h2 = h * h;
   const double betaH = input.damping.stiffnessProportional * h;

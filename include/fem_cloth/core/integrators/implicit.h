@@ -30,9 +30,12 @@ enum class ImplicitScheme { BackwardEuler, Bdf2 };
 
 struct NewtonSettings {
   int maxIterations = 50;
-  /// Converged when the largest force residual on a free DOF, |dPhi/dx| / c^2 (N), is below
-  /// tolerance x the cloth's total weight at 9.81 m/s^2.
-  double tolerance = 1e-6;
+  /// Converged when on every free DOF the unbalanced force |dPhi/dx_i| / c^2 is below
+  /// tolerance x the weight of its vertex at 9.81 m/s^2: an acceleration error of at most
+  /// tolerance x 9.81 m/s^2, independent of the mesh resolution.
+  /// The default, 1e-2, gives 1e-5 m per 0.01 s step, far below backward Euler's own
+  /// truncation error (about g h^2 / 2 = 5e-4 m).
+  double tolerance = 1e-2;
   int maxBacktracks = 40;
   double armijo = 1e-4;  ///< sufficient-decrease constant of the line search
   LinearSolverSettings linear;

@@ -1,0 +1,30 @@
+// Scenes from the ROS parameter server, in the same YAML format as fem_cloth_sim's files.
+#pragma once
+
+#include <ros/node_handle.h>
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/expected.h"
+
+namespace fem_cloth {
+
+/// Converts a parameter tree into YAML (structs to maps, arrays to lists, scalars to scalars).
+YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
+
+/// Maps of `overlay` replace or extend those of `base`, key by key; other values replace.
+void overlayYaml(YAML::Node base, const YAML::Node& overlay);
+
+/// The scene document of a node: the YAML file named by the private parameter `scene_file`
+/// (or `defaultSceneFile` when neither it nor any scene key is set), overlaid with every
+/// private parameter that is not one of `nodeKeys`, so that a launch file's `rosparam load` of a
+/// scene, or a single `<param>`, sets or overrides scene keys. sourcePath receives the file used
+/// (relative mesh files resolve against it).
+Expected<YAML::Node> sceneDocumentFromParameters(const ros::NodeHandle& privateNode,
+                                                 const std::vector<std::string>& nodeKeys,
+                                                 const std::string& defaultSceneFile,
+                                                 std::string* sourcePath);
+
+}  // namespace fem_cloth

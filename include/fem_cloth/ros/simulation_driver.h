@@ -1,0 +1,124 @@
+// The simulation as ROS messages see it, without needing a ROS master: commands in (validated,
+// scheduled by their stamp, frames resolved through a tf2 buffer), one step at a time, messages
+// out. The node (cloth_node.h) feeds it from topics and publishes what it builds; the offline
+// bag re-simulation feeds it from a bag. Sharing it is what makes a live run and its offline
+// replay apply every command at the same step.
+//
+// Time: simulation time t (s, from 0) maps to ROS time epoch + t. A command takes effect before
+// the first step that starts at or after its stamp (zero stamp: before the next step). Every
+// output message is stamped with the simulation time of the state it carries.
+#pragma once
+
+#include <geometry_msgs/WrenchStamped.h>
+#include <ros/time.h>
+#include <shape_msgs/Mesh.h>
+#include <tf2/buffer_core.h>
+#include <visualization_msgs/Marker.h>
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "fem_cloth/ClothEnergy.h"
+#include "fem_cloth/ClothState.h"
+#include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/PinCommand.h"
+#include "fem_cloth/PinForces.h"
+#include "fem_cloth/StepStats.h"
+#include "fem_cloth/core/metrics.h"
+#include "fem_cloth/core/scene.h"
+
+namespace fem_cloth {
+
+struct DriverSettings {
+  std::string frame = "world";  ///< the simulation frame
+  ros::Time epoch;              ///< ROS time of simulation time 0
+  /// A frame whose newest transform is older than this (s, in ROS time) is stale: commands
+  /// referring to it are rejected, and following pins keep their last target.
+  double tfTimeout = 1.0;
+  bool publishVelocities = false;
+  double strainColorMax = 0.05;  ///< marker colour scale: strain (s1 - 1) shown fully red
+};
+
+/// 64-bit FNV-1a over the bits of the positions, then the velocities, as 16 hex digits.
+std::string stateHash(const VectorX& x, const VectorX& v);
+
+class SimulationDriver {
+ public:
+  /// tf may be null: then only commands in the simulation frame are accepted.
+  SimulationDriver(Simulation simulation, Scene scene, DriverSettings settings,
+                   const tf2::BufferCore* tf);
+
+  const Scene& scene() const { return scene_; }
+  const DriverSettings& settings() const { return settings_; }
+  Simulator& simulator() { return *simulation_.simulator; }
+  const Simulator& simulator() const { return *simulation_.simulator; }
+  std::uint64_t stepIndex() const { return simulator().state().step; }
+  ros::Time stampOf(double simulationTime) const;
+  ros::Time now() const { return stampOf(simulator().time()); }
+  void setEpoch(const ros::Time& epoch) { settings_.epoch = epoch; }
+
+  /// Validates a command against the mesh, the tf buffer and itself, and queues it. A command
+  /// is rejected whole; the message names the problem.
+  Status submit(const PinCommand& command);
+  Status submit(const ForceCommand& command);
+  std::size_t pendingCommands() const { return pending_.size(); }
+
+  /// Applies the commands that are due, moves frame-following pins to where their frames are at
+  /// the end of the step, and advances one step. Commands that fail when applied are reported
+  /// through takeWarnings(); the step itself fails only as Simulator::step does.
+  StepReport step();
+  /// Back to the initial state; pending commands and frame-following pins are dropped.
+  void reset();
+  /// Problems met while stepping (a frame no longer available, a command that could not be
+  /// applied), since the last call.
+  std::vector<std::string> takeWarnings();
+
+  // --- Messages -------------------------------------------------------------------------------
+  shape_msgs::Mesh meshMessage() const;
+  ClothState stateMessage() const;
+  ClothEnergy energyMessage();
+  StepStats statsMessage(const StepReport& report, double wallTime, double realTimeFactor) const;
+  visualization_msgs::Marker markerMessage();
+  PinForces pinForcesMessage() const;
+  /// One wrench per grasp frame (the sum over the pins that follow it, expressed in that frame,
+  /// torque about its origin) and one in the simulation frame for pins fixed there.
+  std::vector<geometry_msgs::WrenchStamped> pinWrenchMessages() const;
+
+ private:
+  struct Pending {
+    double time;          // simulation time it takes effect (<= 0: next step)
+    std::uint64_t order;  // arrival order, to keep equal stamps in order
+    std::variant<PinCommand, ForceCommand> command;
+  };
+  struct Follow {
+    std::string frame;
+    Eigen::Vector3d local;  // target in that frame
+  };
+
+  Status checkFrame(const std::string& frame, const ros::Time& stamp) const;
+  bool isSimulationFrame(const std::string& frame) const;
+  std::optional<Eigen::Isometry3d> transform(const std::string& frame, const ros::Time& at,
+                                             std::string* why) const;
+  double commandTime(const ros::Time& stamp) const;
+  Status apply(const PinCommand& command);
+  Status apply(const ForceCommand& command);
+  void followFrames(double endTime);
+
+  Simulation simulation_;
+  Scene scene_;
+  DriverSettings settings_;
+  const tf2::BufferCore* tf_;
+  std::deque<Pending> pending_;
+  std::uint64_t arrivals_ = 0;
+  std::map<Index, Follow> follow_;
+  std::vector<std::string> warnings_;
+  EdgeStretchMeter stretch_;
+  std::vector<double> strains_;
+};
+
+}  // namespace fem_cloth

@@ -1,0 +1,78 @@
+#include "fem_cloth/ros/scene_params.h"
+
+#include <algorithm>
+#include <sstream>
+
+#include "fem_cloth/io/scene_yaml.h"
+
+namespace fem_cloth {
+
+YAML::Node toYaml(const XmlRpc::XmlRpcValue& value) {
+  XmlRpc::XmlRpcValue v = value;  // the accessors are not const
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeStruct: {
+      YAML::Node map(YAML::NodeType::Map);
+      for (auto it = v.begin(); it != v.end(); ++it) map[it->first] = toYaml(it->second);
+      return map;
+    }
+    case XmlRpc::XmlRpcValue::TypeArray: {
+      YAML::Node list(YAML::NodeType::Sequence);
+      for (int i = 0; i < v.size(); ++i) list.push_back(toYaml(v[i]));
+      return list;
+    }
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return YAML::Node(static_cast<bool>(v));
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return YAML::Node(static_cast<int>(v));
+    case XmlRpc::XmlRpcValue::TypeDouble: {
+      std::ostringstream s;
+      s.precision(17);
+      s << static_cast<double>(v);
+      return YAML::Node(s.str());
+    }
+    case XmlRpc::XmlRpcValue::TypeString:
+      return YAML::Node(static_cast<std::string>(v));
+    default:
+      return YAML::Node();
+  }
+}
+
+void overlayYaml(YAML::Node base, const YAML::Node& overlay) {
+  for (const auto& kv : overlay) {
+    const std::string key = kv.first.as<std::string>();
+    YAML::Node existing = base[key];
+    if (kv.second.IsMap() && existing.IsDefined() && existing.IsMap()) {
+      overlayYaml(existing, kv.second);
+    } else {
+      base[key] = kv.second;
+    }
+  }
+}
+
+Expected<YAML::Node> sceneDocumentFromParameters(const ros::NodeHandle& privateNode,
+                                                 const std::vector<std::string>& nodeKeys,
+                                                 const std::string& defaultSceneFile,
+                                                 std::string* sourcePath) {
+  XmlRpc::XmlRpcValue all;
+  YAML::Node overlay(YAML::NodeType::Map);
+  if (privateNode.getParam("", all) && all.getType() == XmlRpc::XmlRpcValue::TypeStruct) {
+    for (auto it = all.begin(); it != all.end(); ++it) {
+      if (std::find(nodeKeys.begin(), nodeKeys.end(), it->first) != nodeKeys.end()) continue;
+      overlay[it->first] = toYaml(it->second);
+    }
+  }
+  std::string file;
+  privateNode.param<std::string>("scene_file", file, "");
+  if (file.empty() && !overlay["mesh"].IsDefined()) file = defaultSceneFile;
+  YAML::Node doc(YAML::NodeType::Map);
+  if (!file.empty()) {
+    Expected<YAML::Node> loaded = loadSceneDocument(file);
+    if (!loaded) return Error{"~scene_file: " + loaded.error()};
+    doc = *loaded;
+  }
+  overlayYaml(doc, overlay);
+  if (sourcePath != nullptr) *sourcePath = file;
+  return doc;
+}
+
+}  // namespace fem_cloth

@@ -1,0 +1,503 @@
+#include "fem_cloth/ros/simulation_driver.h"
+
+#include <tf2/exceptions.h>
+#include <tf2_eigen/tf2_eigen.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <set>
+#include <sstream>
+
+#include "fem_cloth/core/membrane.h"
+
+namespace fem_cloth {
+
+namespace {
+
+std::string str(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+bool finite(const geometry_msgs::Point& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+}
+bool finite(const geometry_msgs::Vector3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertices) {
+  std::set<std::uint32_t> seen;
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    const std::uint32_t v = vertices[k];
+    if (v >= static_cast<std::uint32_t>(numVertices)) {
+      return Error{"vertex " + std::to_string(v) + " (vertices[" + std::to_string(k) +
+                   "]) does not exist: the mesh has vertices 0 to " +
+                   std::to_string(numVertices - 1)};
+    }
+    if (!seen.insert(v).second) {
+      return Error{"vertex " + std::to_string(v) + " is listed twice"};
+    }
+  }
+  return Status::success();
+}
+
+// Blue (unstrained) through white to red (strain >= maxStrain).
+std_msgs::ColorRGBA strainColour(double strain, double maxStrain) {
+  const double u = std::clamp(strain / maxStrain, 0.0, 1.0);
+  std_msgs::ColorRGBA c;
+  c.a = 1.0f;
+  if (u < 0.5) {
+    const double w = 2.0 * u;
+    c.r = static_cast<float>(0.15 + 0.85 * w);
+    c.g = static_cast<float>(0.35 + 0.65 * w);
+    c.b = 1.0f;
+  } else {
+    const double w = 2.0 * (u - 0.5);
+    c.r = 1.0f;
+    c.g = static_cast<float>(1.0 - 0.8 * w);
+    c.b = static_cast<float>(1.0 - 0.85 * w);
+  }
+  return c;
+}
+
+}  // namespace
+
+std::string stateHash(const VectorX& x, const VectorX& v) {
+  std::uint64_t h = 14695981039346656037ull;
+  auto feed = [&h](const VectorX& values) {
+    const unsigned char* bytes = reinterpret_cast<const unsigned char*>(values.data());
+    const std::size_t n = static_cast<std::size_t>(values.size()) * sizeof(double);
+    for (std::size_t i = 0; i < n; ++i) {
+      h ^= bytes[i];
+      h *= 1099511628211ull;
+    }
+  };
+  feed(x);
+  feed(v);
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(h));
+  return text;
+}
+
+SimulationDriver::SimulationDriver(Simulation simulation, Scene scene, DriverSettings settings,
+                                   const tf2::BufferCore* tf)
+    : simulation_(std::move(simulation)),
+      scene_(std::move(scene)),
+      settings_(std::move(settings)),
+      tf_(tf),
+      stretch_(*simulation_.mesh) {}
+
+ros::Time SimulationDriver::stampOf(double simulationTime) const {
+  return settings_.epoch + ros::Duration(simulationTime);
+}
+
+double SimulationDriver::commandTime(const ros::Time& stamp) const {
+  if (stamp.isZero()) return -1.0;
+  return (stamp - settings_.epoch).toSec();
+}
+
+bool SimulationDriver::isSimulationFrame(const std::string& frame) const {
+  if (frame.empty()) return true;
+  const std::string a = frame[0] == '/' ? frame.substr(1) : frame;
+  const std::string b = settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  return a == b;
+}
+
+std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& frame,
+                                                             const ros::Time& at,
+                                                             std::string* why) const {
+  if (isSimulationFrame(frame)) return Eigen::Isometry3d::Identity();
+  if (tf_ == nullptr) {
+    if (why) *why = "frame '" + frame + "' needs tf, which is not available here";
+    return std::nullopt;
+  }
+  const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
+  const std::string target =
+      settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  if (!tf_->_frameExists(source)) {
+    if (why) *why = "unknown frame '" + frame + "': tf has no such frame";
+    return std::nullopt;
+  }
+  if (!tf_->_frameExists(target)) {
+    if (why) {
+      *why = "frame '" + frame + "' cannot be related to the simulation frame '" + target +
+             "': tf has no transform to it";
+    }
+    return std::nullopt;
+  }
+  try {
+    std::string error;
+    if (tf_->canTransform(target, source, at, &error)) {
+      return tf2::transformToEigen(tf_->lookupTransform(target, source, at));
+    }
+    // Not available at that time (not yet received, or the frame stopped): the newest transform
+    // serves if it is recent enough.
+    const geometry_msgs::TransformStamped latest = tf_->lookupTransform(target, source, ros::Time(0));
+    const double age = (at - latest.header.stamp).toSec();
+    if (latest.header.stamp.isZero() || age <= settings_.tfTimeout) {
+      return tf2::transformToEigen(latest);
+    }
+    if (why) {
+      *why = "frame '" + frame + "' is stale: its newest transform is " + str(age) +
+             " s older than the time it is needed at (tf_timeout = " +
+             str(settings_.tfTimeout) + " s)";
+    }
+  } catch (const tf2::TransformException& e) {
+    if (why) *why = "frame '" + frame + "' is not connected to '" + target + "': " + e.what();
+  }
+  return std::nullopt;
+}
+
+Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& stamp) const {
+  std::string why;
+  if (!transform(frame, stamp.isZero() ? now() : stamp, &why)) return Error{why};
+  return Status::success();
+}
+
+Status SimulationDriver::submit(const PinCommand& c) {
+  const Index n = simulator().model().numVertices();
+  if (c.action > PinCommand::RELEASE) {
+    return Error{"unknown action " + std::to_string(c.action) +
+                 " (PIN_AT_TARGETS = 0, PIN_IN_PLACE = 1, RELEASE = 2)"};
+  }
+  if (Status s = checkVertices(c.vertices, n); !s) return s;
+  if (c.action == PinCommand::PIN_AT_TARGETS) {
+    if (c.vertices.empty()) return Error{"PIN_AT_TARGETS lists no vertices"};
+    if (c.targets.size() != c.vertices.size()) {
+      return Error{"PIN_AT_TARGETS has " + std::to_string(c.vertices.size()) + " vertices but " +
+                   std::to_string(c.targets.size()) + " targets (one per vertex)"};
+    }
+    for (std::size_t k = 0; k < c.targets.size(); ++k) {
+      if (!finite(c.targets[k])) {
+        return Error{"target " + std::to_string(k) + " (vertex " + std::to_string(c.vertices[k]) +
+                     ") is not finite"};
+      }
+    }
+  } else if (!c.targets.empty()) {
+    return Error{std::string(c.action == PinCommand::PIN_IN_PLACE ? "PIN_IN_PLACE" : "RELEASE") +
+                 " takes no targets, got " + std::to_string(c.targets.size())};
+  }
+  if (c.action == PinCommand::PIN_IN_PLACE && c.vertices.empty()) {
+    return Error{"PIN_IN_PLACE lists no vertices"};
+  }
+  if (c.action != PinCommand::RELEASE) {
+    if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
+  }
+  Pending p{commandTime(c.header.stamp), arrivals_++, c};
+  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
+                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
+  pending_.insert(it, std::move(p));
+  return Status::success();
+}
+
+Status SimulationDriver::submit(const ForceCommand& c) {
+  const Index n = simulator().model().numVertices();
+  if (c.action > ForceCommand::CLEAR) {
+    return Error{"unknown action " + std::to_string(c.action) + " (APPLY = 0, CLEAR = 1)"};
+  }
+  if (Status s = checkVertices(c.vertices, n); !s) return s;
+  if (c.action == ForceCommand::APPLY) {
+    if (c.vertices.empty()) return Error{"APPLY lists no vertices"};
+    if (c.forces.size() != 1 && c.forces.size() != c.vertices.size()) {
+      return Error{"APPLY has " + std::to_string(c.vertices.size()) + " vertices but " +
+                   std::to_string(c.forces.size()) +
+                   " forces (give one per vertex, or one for all)"};
+    }
+    for (std::size_t k = 0; k < c.forces.size(); ++k) {
+      if (!finite(c.forces[k])) return Error{"force " + std::to_string(k) + " is not finite"};
+    }
+    if (!std::isfinite(c.duration) || c.duration < 0.0) {
+      return Error{"duration must be finite and >= 0 s (0 = until cleared), got " + str(c.duration)};
+    }
+    if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
+  } else if (!c.forces.empty()) {
+    return Error{"CLEAR takes no forces, got " + std::to_string(c.forces.size())};
+  }
+  Pending p{commandTime(c.header.stamp), arrivals_++, c};
+  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
+                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
+  pending_.insert(it, std::move(p));
+  return Status::success();
+}
+
+Status SimulationDriver::apply(const PinCommand& c) {
+  Simulator& sim = simulator();
+  const int d = sim.dim();
+  if (c.action == PinCommand::RELEASE) {
+    if (c.vertices.empty()) {
+      sim.releaseAll();
+      follow_.clear();
+    }
+    for (std::uint32_t v : c.vertices) {
+      sim.release(static_cast<Index>(v));
+      follow_.erase(static_cast<Index>(v));
+    }
+    return Status::success();
+  }
+  std::string why;
+  const std::optional<Eigen::Isometry3d> T = transform(c.header.frame_id, now(), &why);
+  if (!T) return Error{why};
+  const bool follows = !isSimulationFrame(c.header.frame_id);
+  for (std::size_t k = 0; k < c.vertices.size(); ++k) {
+    const Index v = static_cast<Index>(c.vertices[k]);
+    Eigen::Vector3d here = Eigen::Vector3d::Zero();
+    here.head(d) = sim.state().x.segment(d * v, d);
+    Eigen::Vector3d local;
+    if (c.action == PinCommand::PIN_AT_TARGETS) {
+      local = Eigen::Vector3d(c.targets[k].x, c.targets[k].y, c.targets[k].z);
+    } else {
+      local = T->inverse() * here;
+    }
+    Eigen::Vector3d target = *T * local;
+    if (d == 2) target.z() = 0.0;
+    if (Status s = sim.pin(v, target); !s) return s;
+    if (follows) {
+      follow_[v] = Follow{c.header.frame_id, local};
+    } else {
+      follow_.erase(v);
+    }
+  }
+  return Status::success();
+}
+
+Status SimulationDriver::apply(const ForceCommand& c) {
+  Simulator& sim = simulator();
+  if (c.action == ForceCommand::CLEAR) {
+    if (c.vertices.empty()) sim.clearForces();
+    for (std::uint32_t v : c.vertices) sim.clearForce(static_cast<Index>(v));
+    return Status::success();
+  }
+  std::string why;
+  const std::optional<Eigen::Isometry3d> T = transform(c.header.frame_id, now(), &why);
+  if (!T) return Error{why};
+  const double duration = c.duration > 0.0 ? c.duration : std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < c.vertices.size(); ++k) {
+    const geometry_msgs::Vector3& f = c.forces.size() == 1 ? c.forces[0] : c.forces[k];
+    const Eigen::Vector3d force = T->linear() * Eigen::Vector3d(f.x, f.y, f.z);
+    if (Status s = sim.applyForce(static_cast<Index>(c.vertices[k]), force, duration); !s) return s;
+  }
+  return Status::success();
+}
+
+void SimulationDriver::followFrames(double endTime) {
+  const int d = simulator().dim();
+  for (const auto& [vertex, follow] : follow_) {
+    std::string why;
+    const std::optional<Eigen::Isometry3d> T = transform(follow.frame, stampOf(endTime), &why);
+    if (!T) {
+      warnings_.push_back("pin of vertex " + std::to_string(vertex) + " keeps its last target: " + why);
+      continue;
+    }
+    Eigen::Vector3d target = *T * follow.local;
+    if (d == 2) target.z() = 0.0;
+    simulator().pin(vertex, target);
+  }
+}
+
+StepReport SimulationDriver::step() {
+  Simulator& sim = simulator();
+  const double t = sim.time();
+  const double dt = sim.settings().dt;
+  while (!pending_.empty() && pending_.front().time <= t + 1e-9 * dt) {
+    Pending p = std::move(pending_.front());
+    pending_.pop_front();
+    const Status s = std::visit([this](const auto& c) { return apply(c); }, p.command);
+    if (!s) warnings_.push_back("command could not be applied at t = " + str(t) + " s: " + s.error());
+  }
+  if (Status s = simulation_.script.applyDue(sim); !s) warnings_.push_back(s.error());
+  followFrames(t + dt);
+  return sim.step();
+}
+
+void SimulationDriver::reset() {
+  simulator().reset();
+  simulation_.script.rewind();
+  pending_.clear();
+  follow_.clear();
+}
+
+std::vector<std::string> SimulationDriver::takeWarnings() {
+  std::vector<std::string> out;
+  out.swap(warnings_);
+  return out;
+}
+
+shape_msgs::Mesh SimulationDriver::meshMessage() const {
+  const Mesh& mesh = *simulation_.mesh;
+  shape_msgs::Mesh msg;
+  msg.triangles.resize(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      msg.triangles[t].vertex_indices[k] = static_cast<std::uint32_t>(mesh.triangles[t][k]);
+    }
+  }
+  msg.vertices.resize(static_cast<std::size_t>(mesh.numVertices()));
+  for (Index i = 0; i < mesh.numVertices(); ++i) {
+    geometry_msgs::Point& p = msg.vertices[static_cast<std::size_t>(i)];
+    p.x = mesh.restPositions[mesh.dim * i];
+    p.y = mesh.restPositions[mesh.dim * i + 1];
+    p.z = mesh.dim == 3 ? mesh.restPositions[mesh.dim * i + 2] : 0.0;
+  }
+  return msg;
+}
+
+ClothState SimulationDriver::stateMessage() const {
+  const State& s = simulator().state();
+  const int d = simulator().dim();
+  const Index n = simulator().model().numVertices();
+  ClothState msg;
+  msg.header.stamp = now();
+  msg.header.frame_id = settings_.frame;
+  msg.step = s.step;
+  msg.positions.resize(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) {
+    geometry_msgs::Point& p = msg.positions[static_cast<std::size_t>(i)];
+    p.x = s.x[d * i];
+    p.y = s.x[d * i + 1];
+    p.z = d == 3 ? s.x[d * i + 2] : 0.0;
+  }
+  if (settings_.publishVelocities) {
+    msg.velocities.resize(static_cast<std::size_t>(n));
+    for (Index i = 0; i < n; ++i) {
+      geometry_msgs::Vector3& v = msg.velocities[static_cast<std::size_t>(i)];
+      v.x = s.v[d * i];
+      v.y = s.v[d * i + 1];
+      v.z = d == 3 ? s.v[d * i + 2] : 0.0;
+    }
+  }
+  msg.state_hash = stateHash(s.x, s.v);
+  return msg;
+}
+
+ClothEnergy SimulationDriver::energyMessage() {
+  const EnergyReport e = simulator().energies();
+  ClothEnergy msg;
+  msg.header.stamp = now();
+  msg.header.frame_id = settings_.frame;
+  msg.step = stepIndex();
+  msg.kinetic = e.kinetic;
+  msg.strain = e.strain;
+  msg.bending = e.bending;
+  msg.gravity = e.gravity;
+  msg.external_work = e.externalWork;
+  msg.pin_work = e.pinWork;
+  msg.dissipated = e.dissipated;
+  msg.total = e.total;
+  msg.balance_error = e.balanceError;
+  return msg;
+}
+
+StepStats SimulationDriver::statsMessage(const StepReport& r, double wallTime,
+                                         double realTimeFactor) const {
+  StepStats msg;
+  msg.header.stamp = now();
+  msg.header.frame_id = settings_.frame;
+  msg.step = stepIndex();
+  msg.integrator = simulation_.simulator->integrator().name();
+  msg.dt = simulator().settings().dt;
+  msg.wall_time = wallTime;
+  msg.real_time_factor = realTimeFactor;
+  msg.substeps = static_cast<std::uint32_t>(r.substeps);
+  msg.newton_iterations = static_cast<std::uint32_t>(r.newtonIterations);
+  msg.residual = r.residual;
+  msg.line_search_backtracks = static_cast<std::uint32_t>(r.lineSearchBacktracks);
+  msg.rollbacks = static_cast<std::uint32_t>(r.rollbacks);
+  msg.min_area_ratio = minAreaRatio(simulator().model().mesh(), simulator().model().rest(),
+                                    simulator().state().x);
+  msg.contacts = 0;
+  return msg;
+}
+
+visualization_msgs::Marker SimulationDriver::markerMessage() {
+  const Mesh& mesh = simulator().model().mesh();
+  const VectorX& x = simulator().state().x;
+  const int d = mesh.dim;
+  triangleStrains(mesh, simulator().model().rest(), x, strains_);
+  visualization_msgs::Marker m;
+  m.header.stamp = now();
+  m.header.frame_id = settings_.frame;
+  m.ns = "cloth";
+  m.id = 0;
+  m.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = m.scale.y = m.scale.z = 1.0;
+  m.color.a = 1.0f;
+  m.points.resize(3 * mesh.triangles.size());
+  m.colors.resize(3 * mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const std_msgs::ColorRGBA c = strainColour(strains_[t], settings_.strainColorMax);
+    for (int k = 0; k < 3; ++k) {
+      const Index v = mesh.triangles[t][k];
+      geometry_msgs::Point& p = m.points[3 * t + k];
+      p.x = x[d * v];
+      p.y = x[d * v + 1];
+      p.z = d == 3 ? x[d * v + 2] : 0.0;
+      m.colors[3 * t + k] = c;
+    }
+  }
+  return m;
+}
+
+PinForces SimulationDriver::pinForcesMessage() const {
+  const int d = simulator().dim();
+  const VectorX reactions = simulator().pinReactions();
+  PinForces msg;
+  msg.header.stamp = now();
+  msg.header.frame_id = settings_.frame;
+  for (Index v : simulator().pinnedVertices()) {
+    msg.vertices.push_back(static_cast<std::uint32_t>(v));
+    geometry_msgs::Vector3 f;
+    f.x = reactions[d * v];
+    f.y = reactions[d * v + 1];
+    f.z = d == 3 ? reactions[d * v + 2] : 0.0;
+    msg.forces.push_back(f);
+  }
+  return msg;
+}
+
+std::vector<geometry_msgs::WrenchStamped> SimulationDriver::pinWrenchMessages() const {
+  const int d = simulator().dim();
+  const VectorX reactions = simulator().pinReactions();
+  std::map<std::string, std::pair<Eigen::Vector3d, Eigen::Vector3d>> sums;  // force, torque
+  std::map<std::string, Eigen::Isometry3d> frames;
+  for (Index v : simulator().pinnedVertices()) {
+    auto it = follow_.find(v);
+    const std::string frame = it == follow_.end() ? settings_.frame : it->second.frame;
+    if (!frames.count(frame)) {
+      std::string why;
+      const std::optional<Eigen::Isometry3d> T = transform(frame, now(), &why);
+      if (!T) continue;
+      frames[frame] = *T;
+      sums[frame] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    }
+    Eigen::Vector3d f = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
+    f.head(d) = reactions.segment(d * v, d);
+    p.head(d) = simulator().state().x.segment(d * v, d);
+    auto& [force, torque] = sums[frame];
+    force += f;
+    torque += (p - frames[frame].translation()).cross(f);
+  }
+  std::vector<geometry_msgs::WrenchStamped> out;
+  for (const auto& [frame, sum] : sums) {
+    const Eigen::Matrix3d Rt = frames[frame].linear().transpose();
+    const Eigen::Vector3d f = Rt * sum.first, tau = Rt * sum.second;
+    geometry_msgs::WrenchStamped w;
+    w.header.stamp = now();
+    w.header.frame_id = frame;
+    w.wrench.force.x = f.x();
+    w.wrench.force.y = f.y();
+    w.wrench.force.z = f.z();
+    w.wrench.torque.x = tau.x();
+    w.wrench.torque.y = tau.y();
+    w.wrench.torque.z = tau.z();
+    out.push_back(w);
+  }
+  return out;
+}
+
+}  // namespace fem_cloth

@@ -1,0 +1,97 @@
+// Helpers for the node's integration tests: wait for messages (never sleep for a fixed time),
+// check that messages carry finite numbers.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include <cmath>
+#include <functional>
+#include <mutex>
+#include <string>
+
+#include "fem_cloth/ClothEnergy.h"
+#include "fem_cloth/ClothState.h"
+
+namespace fem_cloth_test {
+
+constexpr const char* kNode = "/fem_cloth_node";
+inline std::string topic(const std::string& name) { return std::string(kNode) + "/" + name; }
+
+/// Subscribes to a topic and keeps the latest message; waits until a predicate holds.
+template <class M>
+class Latest {
+ public:
+  explicit Latest(const std::string& name, std::function<void(const M&)> onEach = {})
+      : onEach_(std::move(onEach)) {
+    sub_ = nh_.subscribe<M>(name, 100, [this](const typename M::ConstPtr& msg) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      latest_ = msg;
+      ++count_;
+      if (onEach_) onEach_(*msg);
+    });
+  }
+  /// Spins until pred(latest) holds or the timeout (s) passes; returns the message or null.
+  typename M::ConstPtr waitFor(std::function<bool(const M&)> pred, double timeout = 30.0) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+    while (ros::ok() && ros::WallTime::now() < end) {
+      ros::spinOnce();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (latest_ && pred(*latest_)) return latest_;
+      }
+      ros::WallDuration(0.002).sleep();
+    }
+    return nullptr;
+  }
+  typename M::ConstPtr waitForAny(double timeout = 30.0) {
+    return waitFor([](const M&) { return true; }, timeout);
+  }
+  /// Waits for the next message after the ones seen so far.
+  typename M::ConstPtr waitForNext(double timeout = 30.0) {
+    std::size_t seen;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      seen = count_;
+    }
+    return waitFor([this, seen](const M&) { return count_ > seen; }, timeout);
+  }
+  std::size_t count() const { return count_; }
+
+ private:
+  ros::NodeHandle nh_;
+  ros::Subscriber sub_;
+  std::function<void(const M&)> onEach_;
+  std::mutex mutex_;
+  typename M::ConstPtr latest_;
+  std::size_t count_ = 0;
+};
+
+inline bool finite(const fem_cloth::ClothState& s) {
+  for (const auto& p : s.positions) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return false;
+  }
+  for (const auto& v : s.velocities) {
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
+  }
+  return !s.positions.empty();
+}
+
+inline bool finite(const fem_cloth::ClothEnergy& e) {
+  for (double v : {e.kinetic, e.strain, e.bending, e.gravity, e.external_work, e.pin_work,
+                   e.dissipated, e.total, e.balance_error}) {
+    if (!std::isfinite(v)) return false;
+  }
+  return true;
+}
+
+/// Waits until a publisher has a subscriber connected (so a first message is not lost).
+inline bool waitForConnection(const ros::Publisher& pub, double timeout = 10.0) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+  while (ros::ok() && pub.getNumSubscribers() == 0 && ros::WallTime::now() < end) {
+    ros::WallDuration(0.01).sleep();
+  }
+  return pub.getNumSubscribers() > 0;
+}
+
+}  // namespace fem_cloth_test

@@ -1,0 +1,118 @@
+// Pins: a pin holds a vertex exactly at its target, and a pin in a frame moved by a tf
+// broadcaster follows that frame.
+#include <tf2/LinearMath/Vector3.h>
+#include <tf2_ros/transform_broadcaster.h>
+
+#include <atomic>
+
+#include <thread>
+
+#include "fem_cloth/PinCommand.h"
+#include "node_test_support.h"
+
+using namespace fem_cloth_test;
+
+TEST(Pins, HoldsVertexExactlyAtTarget) {
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<fem_cloth::PinCommand>(topic("pin"), 10);
+  ASSERT_TRUE(waitForConnection(pub));
+  Latest<fem_cloth::ClothState> state(topic("state"));
+  ASSERT_TRUE(state.waitForAny());
+  fem_cloth::PinCommand c;
+  c.header.frame_id = "world";
+  c.action = fem_cloth::PinCommand::PIN_AT_TARGETS;
+  c.vertices = {40};
+  geometry_msgs::Point target;
+  target.x = 0.5;
+  target.y = 0.25;
+  target.z = -0.125;
+  c.targets = {target};
+  pub.publish(c);
+  auto at = state.waitFor([&](const fem_cloth::ClothState& s) {
+    return s.positions[40].x == target.x && s.positions[40].y == target.y &&
+           s.positions[40].z == target.z;
+  });
+  ASSERT_TRUE(at) << "vertex 40 never reached its target exactly";
+  // And it stays there, bit for bit, while the rest of the cloth moves.
+  for (int k = 0; k < 5; ++k) {
+    auto next = state.waitForNext();
+    ASSERT_TRUE(next);
+    EXPECT_EQ(next->positions[40].x, target.x);
+    EXPECT_EQ(next->positions[40].y, target.y);
+    EXPECT_EQ(next->positions[40].z, target.z);
+    EXPECT_TRUE(finite(*next));
+  }
+}
+
+TEST(Pins, FollowsAFrameMovedByTf) {
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<fem_cloth::PinCommand>(topic("pin"), 10);
+  ASSERT_TRUE(waitForConnection(pub));
+  // A gripper frame rising at 0.2 m/s from (0.5, 0, 0) in world. Transforms are stamped 0.2 s
+  // ahead, so the node can interpolate at the end time of every step; the motion is linear, so
+  // tf's interpolation is exact.
+  const ros::Time t0 = ros::Time::now();
+  const double speed = 0.2;
+  auto gripperAt = [&](const ros::Time& t) {
+    return tf2::Vector3(0.5, 0.0, speed * (t - t0).toSec());
+  };
+  std::atomic<bool> stop{false};
+  std::thread broadcaster([&] {
+    tf2_ros::TransformBroadcaster br;
+    while (!stop && ros::ok()) {
+      const ros::Time stamp = ros::Time::now() + ros::Duration(0.2);
+      geometry_msgs::TransformStamped tf;
+      tf.header.stamp = stamp;
+      tf.header.frame_id = "world";
+      tf.child_frame_id = "gripper";
+      const tf2::Vector3 p = gripperAt(stamp);
+      tf.transform.translation.x = p.x();
+      tf.transform.translation.y = p.y();
+      tf.transform.translation.z = p.z();
+      tf.transform.rotation.w = 1.0;
+      br.sendTransform(tf);
+      ros::WallDuration(0.01).sleep();
+    }
+  });
+  ros::WallDuration(0.5).sleep();  // let the node's tf buffer fill
+
+  // Vertex 4 (middle of the pinned edge, at x = 0.5) held 0.1 m beside and 0.1 m below the
+  // gripper: x = 0.6 tells when the command has taken effect.
+  fem_cloth::PinCommand c;
+  c.header.frame_id = "gripper";
+  c.action = fem_cloth::PinCommand::PIN_AT_TARGETS;
+  c.vertices = {4};
+  geometry_msgs::Point local;
+  local.x = 0.1;
+  local.z = -0.1;
+  c.targets = {local};
+  pub.publish(c);
+
+  Latest<fem_cloth::ClothState> state(topic("state"));
+  int checked = 0;
+  double worst = 0.0;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(20.0);
+  while (checked < 20 && ros::WallTime::now() < end) {
+    auto s = state.waitForNext();
+    ASSERT_TRUE(s);
+    ASSERT_TRUE(finite(*s));
+    const tf2::Vector3 g = gripperAt(s->header.stamp);
+    const double dz = s->positions[4].z - (g.z() - 0.1);
+    const double dx = s->positions[4].x - (g.x() + 0.1);
+    if (std::abs(dx) > 1e-3) continue;  // the command has not taken effect yet
+    worst = std::max(worst, std::abs(dz));
+    ++checked;
+  }
+  stop = true;
+  broadcaster.join();
+  ASSERT_EQ(checked, 20) << "the pinned vertex never followed the gripper";
+  // Exact up to tf's float-to-double round trips.
+  EXPECT_LT(worst, 1e-6);
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_pins");
+  ros::NodeHandle nh;
+  return RUN_ALL_TESTS();
+}
