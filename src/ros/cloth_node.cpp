@@ -208,8 +208,13 @@ bool ClothNode::onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
 bool ClothNode::onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (paused_) {
-    // Real time restarts from here: the pause is not made up for.
+    // Real time restarts from here: the pause is not made up for. A recorder that subscribed
+    // while we were paused gets the current state first.
     wallEpoch_ = ros::Time::now() - ros::Duration(driver_->simulator().time() / realTimeFactor_);
+    if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
+      driver_->setEpoch(wallEpoch_);
+    }
+    publishOutputs(StepReport(), 0.0, true);
   }
   paused_ = false;
   res.success = true;
