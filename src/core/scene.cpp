@@ -279,10 +279,12 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   sim.model = std::make_shared<Model>(mesh, rest,
                                        lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
   sim.model->addTerm(makeMembraneTerm(mesh, rest, *material), TermKind::Membrane);
-  Expected<std::unique_ptr<EnergyTerm>> bending =
-      makeBendingTerm(*mesh, *rest, scene.bendingModel, scene.bendingStiffness);
-  if (!bending) return Error{"bending: " + bending.error()};
-  if (bending.value() != nullptr) {
+  // Zero stiffness declares no bending term at all, so planar meshes (which cannot bend) build;
+  // a planar mesh with a non-zero stiffness is an error naming the key.
+  if (scene.bendingStiffness > 0.0) {
+    Expected<std::unique_ptr<EnergyTerm>> bending =
+        makeBendingTerm(*mesh, *rest, scene.bendingModel, scene.bendingStiffness);
+    if (!bending) return Error{"bending.stiffness: " + bending.error()};
     sim.model->addTerm(std::move(bending).value(), TermKind::Bending);
   }
 

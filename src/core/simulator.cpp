@@ -228,13 +228,15 @@ StepReport Simulator::step(double dt) {
                 forces_.end());
   if (forces_.size() != before) rebuildExternalForce();
 
-  // End-of-step pin targets.
+  // End-of-step pin targets: a pin is at pinTarget_ now and moves on with its velocity, so a
+  // scripted pin follows p(t) = p0 + v t exactly at the end of every step.
+  stepPinTarget_ = pinTarget_ + pinVelocity_ * dt;
   StepInput input;
   input.model = model_.get();
   input.gravityForce = &gravityForce_;
   input.externalForce = &externalForce_;
   input.pinned = &pinned_;
-  input.pinTarget = &pinTarget_;
+  input.pinTarget = &stepPinTarget_;
   input.damping = settings_.damping;
 
   backup_ = state_;
@@ -290,6 +292,7 @@ StepReport Simulator::step(double dt) {
     total.error = r.ok ? "the state became non-finite" : r.error;
     state_ = backup_;
     integrator_->invalidate();
+    if (!r.retryable) break;
     if (attempt < settings_.maxRetries) {
       ++total.rollbacks;
       substeps = std::max(substeps, r.substeps) * 2;
@@ -317,10 +320,7 @@ StepReport Simulator::step(double dt) {
   previousPinForce_ = pinForce_;
   state_.time += dt;
   ++state_.step;
-  // Scripted pin motion.
-  for (Index i = 0; i < n; ++i) {
-    if (pinned_[i]) pinTarget_[i] += pinVelocity_[i] * dt;
-  }
+  pinTarget_.swap(stepPinTarget_);
   lastReport_ = total;
   return total;
 }

@@ -38,10 +38,16 @@ class MapReader {
   Status check() const {
     if (!node_.IsDefined() || node_.IsNull()) return Status::success();
     if (!node_.IsMap()) return Error{where("") + " must be a map of keys, got " + describe(node_)};
+    // YAML keys are unique in a map, but yaml-cpp reads a repeated key and keeps the first
+    // value, which would silently drop the second: an error as well.
+    std::set<std::string> seen;
     for (const auto& kv : node_) {
       const std::string key = kv.first.as<std::string>();
       if (std::find(known_.begin(), known_.end(), key) == known_.end()) {
         return Error{"unknown key '" + where(key) + "' (known here: " + joinKeys(known_) + ")"};
+      }
+      if (!seen.insert(key).second) {
+        return Error{"key '" + where(key) + "' is given more than once"};
       }
     }
     return Status::success();

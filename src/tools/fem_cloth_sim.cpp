@@ -118,8 +118,11 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);
-    return code == 0 ? 0 : 2;
+    // --help prints the usage and succeeds; every other parse error is one line on stderr,
+    // like the scene errors (CLI11's own report adds a second line and no program name).
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::cerr << "fem_cloth_sim: " << e.what() << " (see --help)\n";
+    return 2;
   }
 
   std::vector<std::string> overrides = opt.overrides;

@@ -4,7 +4,9 @@
 // Every step either succeeds or leaves the state exactly as it was: a failed attempt
 // (non-finite values, no Newton convergence, explicit blow-up, an element leaving its material's
 // domain) is rolled back and retried with twice the substeps, up to maxRetries times; after that
-// step() returns the error and the simulator keeps its last good state.
+// step() returns the error and the simulator keeps its last good state. A refusal that more
+// substeps cannot change (StepReport::retryable false: symplectic Euler asked not to substep
+// past its stability bound, XPBD on a term without constraint form) is returned at once.
 #pragma once
 
 #include <memory>
@@ -63,8 +65,9 @@ class Simulator {
   void reset();
 
   // --- Commands (between steps) ---------------------------------------------------------------
-  /// Pins a vertex at a target (m) that then moves with `velocity` (m/s). The vertex reaches the
-  /// target at the end of the next step.
+  /// Pins a vertex at a target (m) that from now on moves with `velocity` (m/s): the pin follows
+  /// p(t) = target + velocity (t - now), and at the end of every step the vertex is at p. A
+  /// vertex away from the target gets there within the next step.
   Status pin(Index vertex, const Eigen::Vector3d& target,
              const Eigen::Vector3d& velocity = Eigen::Vector3d::Zero());
   /// Pins a vertex where it is now.
@@ -73,7 +76,7 @@ class Simulator {
   void releaseAll();
   bool isPinned(Index vertex) const;
   std::vector<Index> pinnedVertices() const;
-  /// The pin target of a pinned vertex (zeros beyond dim).
+  /// Where the pin of a pinned vertex is now (m; zeros beyond dim).
   Eigen::Vector3d pinTarget(Index vertex) const;
   /// Adds a force (N) on a vertex for `duration` seconds (infinity: until cleared), replacing
   /// an earlier force on the same vertex.
@@ -111,7 +114,8 @@ class Simulator {
   State backup_;
   VectorX gravityForce_;
   std::vector<char> pinned_;
-  VectorX pinTarget_, pinVelocity_;
+  VectorX pinTarget_, pinVelocity_;  // pin positions now, and their velocities
+  VectorX stepPinTarget_;             // pin positions at the end of the step being taken
   struct Force {
     Index vertex;
     Eigen::Vector3d force;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace fem_cloth {
@@ -232,7 +233,30 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     const double slope = g_.dot(dx_);
     double step = 1.0;
     bool accepted = false;
-    for (int b = 0; b <= settings_.maxBacktracks; ++b) {
+    // Close to the minimum the decrease a Newton step makes, about -slope/2 (Newton decrement),
+    // falls below the round-off of Phi itself, which is of order eps times the magnitudes of its
+    // terms. Comparing Phi values there only compares noise: the search accepts tiny random
+    // steps and Newton stalls just above a tight tolerance (and more so after a rollback, since
+    // the decrement scales with c^4 and Phi with c^2). There the force residual, which has no
+    // such cancellation, is the merit function instead: the full step is taken if it lowers it.
+    const double phiScale =
+        std::abs(phi) + 2.0 * c2_ * (std::abs(r.energy) + std::abs(forceTotal_.dot(x_)));
+    if (-slope <= 1e3 * std::numeric_limits<double>::epsilon() * phiScale) {
+      xTrial_ = x_ + dx_;
+      gElasticTrial_.setZero(n);
+      energyAndGradient.gradient = &gElasticTrial_;
+      const EvalResult trial = model.evaluate(xTrial_, energyAndGradient);
+      if (trial.inDomain) {
+        potentialGradient(xTrial_, gElasticTrial_, gTrial_);
+        dampingGradient(xTrial_, gTrial_);
+        if (relativeResidualOf(gTrial_) < relative) {
+          accepted = true;
+          r = trial;
+          phi = potential(xTrial_, trial.energy) + dampingEnergy(xTrial_);
+        }
+      }
+    }
+    for (int b = 0; b <= settings_.maxBacktracks && !accepted; ++b) {
       xTrial_ = x_ + step * dx_;
       gElasticTrial_.setZero(n);
       energyAndGradient.gradient = &gElasticTrial_;
@@ -243,6 +267,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
       if (phiTrial <= phi + settings_.armijo * step * slope) {
         accepted = true;
         phi = phiTrial;
+        r = trial;
         break;
       }
       ++report.lineSearchBacktracks;

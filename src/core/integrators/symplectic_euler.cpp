@@ -65,6 +65,7 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
           << " s of this scene (" << settings_.cflSafety << " x the CFL bound " << stableStep_
           << " s); use dt <= " << usable << " s or enable substeps";
       report.ok = false;
+      report.retryable = false;
       report.error = msg.str();
       return report;
     }
@@ -77,6 +78,7 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
         << " substeps (stable step " << usable << " s), more than the limit "
         << settings_.maxSubsteps << "; use an implicit integrator for this scene";
     report.ok = false;
+    report.retryable = false;
     report.error = msg.str();
     return report;
   }

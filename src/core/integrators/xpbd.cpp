@@ -49,6 +49,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
         term.constraintsPerElement() > EnergyTerm::kMaxConstraintsPerElement ||
         term.verticesPerElement() * d > EnergyTerm::kMaxElementDofs) {
       report.ok = false;
+      report.retryable = false;
       report.error = "xpbd: energy term '" + term.name() +
                      "' has no constraint form; use an implicit integrator";
       return report;
@@ -61,8 +62,13 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
   const double h2 = h * h;
   const double betaH = input.damping.stiffnessProportional * h;
 
+  // Implicit mass damping, as in backward Euler: M (1 + h alpha)(x+ - xhat) / h^2 = -dE/dx with
+  // xhat = x + h (v + h f / m) / (1 + h alpha). The prediction below divides by 1 + h alpha; the
+  // projection must see the masses times 1 + h alpha as well, or at rest the damping would
+  // cancel part of the weight (a hanging cloth then carries g / (1 + h alpha)).
+  const double dampedMass = 1.0 + h * input.damping.massProportional;
   inverseMass_.resize(n);
-  for (Index i = 0; i < n; ++i) inverseMass_[i] = pinned[i] ? 0.0 : 1.0 / mass[i];
+  for (Index i = 0; i < n; ++i) inverseMass_[i] = pinned[i] ? 0.0 : 1.0 / (mass[i] * dampedMass);
   pinForce.setZero();
   const VectorX& target = *input.pinTarget;
 

@@ -55,6 +55,9 @@ struct StepInput {
 struct StepReport {
   bool ok = true;
   std::string error;       ///< why the step failed (state untouched)
+  /// False when more substeps cannot help (a step size the settings refuse, a model the
+  /// integrator cannot handle): the simulator then returns the error without retrying.
+  bool retryable = true;
   int substeps = 0;
   int newtonIterations = 0;
   double residual = 0.0;   ///< final Newton residual (N, max over free DOFs); 0 for explicit

@@ -12,8 +12,10 @@
 // accuracy report measures how much.
 //
 // Gauss-Seidel over the elements in mesh order: sequential and deterministic.
-// Damping: mass-proportional alpha scales velocities by 1/(1 + h alpha); stiffness-proportional
-// beta uses XPBD's constraint damping (section 3.5).
+// Damping: mass-proportional alpha is implicit as in backward Euler (the predicted velocity is
+// divided by 1 + h alpha and the projection uses the masses times 1 + h alpha, so converged XPBD
+// still solves the damped backward Euler equations); stiffness-proportional beta uses XPBD's
+// constraint damping (section 3.5).
 #pragma once
 
 #include "fem_cloth/core/integrators/integrator.h"
