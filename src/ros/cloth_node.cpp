@@ -154,6 +154,7 @@ bool ClothNode::start(std::string* error) {
   pauseSrv_ = private_.advertiseService("pause", &ClothNode::onPause, this);
   resumeSrv_ = private_.advertiseService("resume", &ClothNode::onResume, this);
   stepSrv_ = private_.advertiseService("step", &ClothNode::onStep, this);
+  advanceSrv_ = private_.advertiseService("advance", &ClothNode::onAdvance, this);
 
   std::ostringstream info;
   const Simulator& sim = driver_->simulator();
@@ -235,6 +236,35 @@ bool ClothNode::onStep(std_srvs::Trigger::Request&, std_srvs::Trigger::Response&
   res.message = "stepping to t = " +
                 std::to_string(driver_->simulator().time() + driver_->simulator().settings().dt) + " s";
   wake_.notify_all();
+  return true;
+}
+
+bool ClothNode::onAdvance(Advance::Request& req, Advance::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!paused_) {
+    res.success = false;
+    res.message = "~advance steps a paused simulation; call ~pause first";
+  } else {
+    const std::uint32_t steps = std::max<std::uint32_t>(req.steps, 1);
+    res.success = true;
+    for (std::uint32_t k = 0; k < steps; ++k) {
+      stepOnce();
+      if (!driver_->simulator().lastReport().ok) {
+        res.success = false;
+        res.message = "step " + std::to_string(k + 1) + " of " + std::to_string(steps) +
+                      " failed: " + driver_->simulator().lastReport().error;
+        break;
+      }
+    }
+    if (res.success) res.message = "advanced " + std::to_string(steps) + " steps";
+    // The caller gets the state it stopped at, whatever the publish rate.
+    if (driver_->stepIndex() % publishEvery_ != 0) {
+      publishOutputs(driver_->simulator().lastReport(), stepWallTime_, true);
+    }
+  }
+  res.step = driver_->stepIndex();
+  res.time = driver_->simulator().time();
+  res.state_hash = stateHash(driver_->simulator().state().x, driver_->simulator().state().v);
   return true;
 }
 

@@ -57,6 +57,14 @@ class Latest {
     return waitFor([this, seen](const M&) { return count_ > seen; }, timeout);
   }
   std::size_t count() const { return count_; }
+  /// Waits until the subscription is connected to a publisher (messages sent before are lost).
+  bool waitConnected(double timeout = 10.0) {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
+    while (ros::ok() && sub_.getNumPublishers() == 0 && ros::WallTime::now() < end) {
+      ros::WallDuration(0.01).sleep();
+    }
+    return sub_.getNumPublishers() > 0;
+  }
 
  private:
   ros::NodeHandle nh_;

@@ -8,6 +8,7 @@
 
 #include <limits>
 
+#include "fem_cloth/Advance.h"
 #include "fem_cloth/ForceCommand.h"
 #include "fem_cloth/PinCommand.h"
 #include "node_test_support.h"
@@ -154,6 +155,40 @@ TEST(Reset, RestoresTheInitialState) {
     EXPECT_EQ(s->positions[i].y, m->vertices[i].y);
     EXPECT_EQ(s->positions[i].z, m->vertices[i].z);
   }
+}
+
+TEST(Advance, StepsAPausedSimulationSynchronously) {
+  ros::NodeHandle nh;
+  ros::ServiceClient pause = nh.serviceClient<std_srvs::Trigger>(topic("pause"));
+  ros::ServiceClient advance = nh.serviceClient<fem_cloth::Advance>(topic("advance"));
+  ros::ServiceClient resume = nh.serviceClient<std_srvs::Trigger>(topic("resume"));
+  ASSERT_TRUE(advance.waitForExistence(ros::Duration(10.0)));
+  // Refused while running.
+  fem_cloth::Advance a;
+  a.request.steps = 3;
+  ASSERT_TRUE(advance.call(a));
+  EXPECT_FALSE(a.response.success);
+  std_srvs::Trigger t;
+  ASSERT_TRUE(pause.call(t));
+  Latest<fem_cloth::ClothState> state(topic("state"));
+  ASSERT_TRUE(state.waitConnected());
+  ASSERT_TRUE(advance.call(a));
+  ASSERT_TRUE(a.response.success) << a.response.message;
+  const std::uint64_t first = a.response.step;
+  a.request.steps = 7;
+  ASSERT_TRUE(advance.call(a));
+  ASSERT_TRUE(a.response.success) << a.response.message;
+  // Exactly 7 more steps of dt = 0.01 s, and paused: nothing moves in between.
+  EXPECT_EQ(a.response.step, first + 7);
+  auto s = state.waitFor([&](const fem_cloth::ClothState& m) { return m.step == a.response.step; }, 10.0);
+  ASSERT_TRUE(s) << "no state for the step ~advance reported";
+  EXPECT_EQ(s->state_hash, a.response.state_hash);
+  ros::WallDuration(0.3).sleep();
+  a.request.steps = 0;
+  ASSERT_TRUE(advance.call(a));
+  EXPECT_EQ(a.response.step, first + 8);
+  EXPECT_NEAR(a.response.time, 0.01 * static_cast<double>(a.response.step), 1e-9);
+  ASSERT_TRUE(resume.call(t));
 }
 
 int main(int argc, char** argv) {

@@ -31,6 +31,7 @@
 #include <mutex>
 #include <string>
 
+#include "fem_cloth/Advance.h"
 #include "fem_cloth/ros/simulation_driver.h"
 
 namespace fem_cloth {
@@ -60,6 +61,7 @@ class ClothNode {
   bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onStep(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
+  bool onAdvance(Advance::Request& req, Advance::Response& res);
   /// One step and its outputs (lock held by the caller).
   void stepOnce();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
@@ -100,7 +102,7 @@ class ClothNode {
   ros::Subscriber pinSub_, forceSub_;
   ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, markerPub_, pinForcesPub_,
       pinWrenchPub_, clockPub_, diagnosticsPub_;
-  ros::ServiceServer resetSrv_, pauseSrv_, resumeSrv_, stepSrv_;
+  ros::ServiceServer resetSrv_, pauseSrv_, resumeSrv_, stepSrv_, advanceSrv_;
 };
 
 }  // namespace fem_cloth
