@@ -2,12 +2,14 @@
 
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <ros/package.h>
+#include <std_msgs/String.h>
 #include <rosgraph_msgs/Clock.h>
 
 #include <cmath>
 #include <sstream>
 
 #include "fem_cloth/io/scene_yaml.h"
+#include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/scene_params.h"
 
 namespace fem_cloth {
@@ -44,7 +46,8 @@ const std::vector<std::string>& ClothNode::parameterNames() {
   static const std::vector<std::string> names = {
       "scene_file",   "frame_id",      "time_mode",          "real_time_factor",
       "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
-      "always_publish", "start_paused", "tf_timeout",        "strain_color_max"};
+      "always_publish", "start_paused", "tf_timeout",        "strain_color_max",
+      "step_lag",     "replay_bag"};
   return names;
 }
 
@@ -64,14 +67,22 @@ bool ClothNode::readParameters(std::string* error) {
       !readParam(private_, "always_publish", alwaysPublish_, error, "true or false") ||
       !readParam(private_, "start_paused", startPaused_, error, "true or false") ||
       !readParam(private_, "tf_timeout", tfTimeout_, error, "a number (s)") ||
-      !readParam(private_, "strain_color_max", strainColorMax_, error, "a number")) {
+      !readParam(private_, "strain_color_max", strainColorMax_, error, "a number") ||
+      !readParam(private_, "step_lag", stepLag_, error, "a number (s)") ||
+      !readParam(private_, "replay_bag", replayBag_, error, "a path")) {
+    return false;
+  }
+  if (!(stepLag_ >= 0.0) || !std::isfinite(stepLag_)) {
+    *error = "parameter ~step_lag must be >= 0 s";
     return false;
   }
   if (private_.hasParam("start_time")) {
-    if (!private_.getParam("start_time", startTime_) || !std::isfinite(startTime_) || startTime_ < 0) {
+    double seconds = 0.0;
+    if (!private_.getParam("start_time", seconds) || !std::isfinite(seconds) || seconds < 0) {
       *error = "parameter ~start_time must be a number of seconds >= 0";
       return false;
     }
+    startTime_ = ros::Time(seconds);
     hasStartTime_ = true;
   }
   if (frame_.empty()) {
@@ -108,12 +119,37 @@ bool ClothNode::readParameters(std::string* error) {
 bool ClothNode::start(std::string* error) {
   if (!readParameters(error)) return false;
   std::string sourcePath;
-  Expected<YAML::Node> doc =
-      sceneDocumentFromParameters(private_, parameterNames(), defaultSceneFile(), &sourcePath);
+  std::optional<RecordedRun> replay;
+  if (!replayBag_.empty()) {
+    Expected<RecordedRun> run = readRun(replayBag_, ros::this_node::getName());
+    if (!run) {
+      *error = "~replay_bag: " + run.error();
+      return false;
+    }
+    replay = std::move(run).value();
+  }
+  Expected<YAML::Node> doc = Error{""};
+  bool sceneKeys = private_.hasParam("scene_file") || private_.hasParam("mesh");
+  if (replay && !sceneKeys) {
+    if (replay->sceneYaml.empty()) {
+      *error = "~replay_bag: " + replayBag_ + " holds no scene; give ~scene_file";
+      return false;
+    }
+    try {
+      doc = YAML::Load(replay->sceneYaml);
+    } catch (const YAML::Exception& e) {
+      *error = "~replay_bag: the stored scene is not valid YAML: " + e.msg;
+      return false;
+    }
+    sourcePath = replayBag_;
+  } else {
+    doc = sceneDocumentFromParameters(private_, parameterNames(), defaultSceneFile(), &sourcePath);
+  }
   if (!doc) {
     *error = doc.error();
     return false;
   }
+  sceneText_ = sceneDocumentToString(*doc);
   Expected<Scene> scene = parseScene(*doc, sourcePath);
   if (!scene) {
     *error = "scene parameter " + scene.error();
@@ -126,6 +162,12 @@ bool ClothNode::start(std::string* error) {
   }
   for (const std::string& w : simulation->warnings) ROS_WARN_STREAM("fem_cloth_node: mesh: " << w);
 
+  if (replay && !hasStartTime_) {
+    if (std::optional<ros::Time> epoch = runEpoch(*replay, scene->dt)) {
+      startTime_ = *epoch;
+      hasStartTime_ = true;
+    }
+  }
   DriverSettings settings;
   settings.frame = frame_;
   settings.tfTimeout = tfTimeout_;
@@ -147,6 +189,9 @@ bool ClothNode::start(std::string* error) {
   pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
   pinWrenchPub_ = private_.advertise<geometry_msgs::WrenchStamped>("pin_wrench", 10);
   diagnosticsPub_ = node_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  scenePub_ = private_.advertise<std_msgs::String>("scene", 1, true);
+  appliedPinPub_ = private_.advertise<PinCommand>("applied_pin", 100);
+  appliedForcePub_ = private_.advertise<ForceCommand>("applied_force", 100);
   if (timeMode_ == TimeMode::Fast) clockPub_ = node_.advertise<rosgraph_msgs::Clock>("/clock", 10);
   pinSub_ = private_.subscribe("pin", 100, &ClothNode::onPin, this);
   forceSub_ = private_.subscribe("force", 100, &ClothNode::onForce, this);
@@ -272,6 +317,9 @@ void ClothNode::stepOnce() {
   const ros::WallTime begin = ros::WallTime::now();
   const StepReport report = driver_->step();
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
+  // The commands as they took effect, stamped with their step: what a recording replays.
+  for (const PinCommand& c : driver_->takeAppliedPins()) appliedPinPub_.publish(c);
+  for (const ForceCommand& c : driver_->takeAppliedForces()) appliedForcePub_.publish(c);
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
     ROS_WARN_STREAM_THROTTLE(2.0, "fem_cloth_node: " << w);
@@ -359,11 +407,14 @@ void ClothNode::run() {
     std::lock_guard<std::mutex> lock(mutex_);
     wallEpoch_ = ros::Time::now();
     const ros::Time epoch =
-        hasStartTime_ ? ros::Time(startTime_) : (timeMode_ == TimeMode::Fast ? ros::Time(0) : wallEpoch_);
+        hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : wallEpoch_);
     driver_->setEpoch(epoch);
     if (hasStartTime_ && timeMode_ == TimeMode::RealTime) wallEpoch_ = epoch;
     rtfWindowStart_ = ros::WallTime::now();
     meshPub_.publish(driver_->meshMessage());
+    std_msgs::String sceneMsg;
+    sceneMsg.data = sceneText_;
+    scenePub_.publish(sceneMsg);
     if (timeMode_ == TimeMode::Fast) {
       rosgraph_msgs::Clock clock;
       clock.clock = driver_->now();
@@ -380,8 +431,9 @@ void ClothNode::run() {
     }
     if (!paused_ && timeMode_ == TimeMode::RealTime) {
       // The step that ends at simulation time t + dt is due at wallEpoch + (t + dt) / factor.
-      const ros::Time due =
-          wallEpoch_ + ros::Duration((driver_->simulator().time() + dt) / realTimeFactor_);
+      const ros::Time due = wallEpoch_ +
+                            ros::Duration((driver_->simulator().time() + dt) / realTimeFactor_ +
+                                          stepLag_);
       const ros::Time now = ros::Time::now();
       if (now < due) {
         lock.unlock();
@@ -394,6 +446,22 @@ void ClothNode::run() {
         continue;
       }
     }
+    // Wait (up to tf_timeout) for the transforms this step needs at exactly its times, so that
+    // a replay of the run sees the same frames.
+    std::string missing;
+    if (!driver_->transformsReady(&missing)) {
+      if (tfWaitStart_.isZero()) tfWaitStart_ = ros::WallTime::now();
+      if ((ros::WallTime::now() - tfWaitStart_).toSec() < tfTimeout_) {
+        lock.unlock();
+        ros::WallDuration(0.001).sleep();
+        continue;
+      }
+      ROS_WARN_STREAM_THROTTLE(2.0, "fem_cloth_node: stepping without " << missing
+                                        << " (waited tf_timeout = " << tfTimeout_
+                                        << " s): using the newest transform; a replay of this "
+                                           "run may differ");
+    }
+    tfWaitStart_ = ros::WallTime();
     if (paused_) --stepRequests_;
     stepOnce();
     if (!driver_->simulator().lastReport().ok) {

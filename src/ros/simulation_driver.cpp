@@ -9,6 +9,7 @@
 #include <cstring>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include "fem_cloth/core/membrane.h"
 
@@ -150,6 +151,44 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
     if (why) *why = "frame '" + frame + "' is not connected to '" + target + "': " + e.what();
   }
   return std::nullopt;
+}
+
+bool SimulationDriver::exactlyKnown(const std::string& frame, const ros::Time& at) const {
+  if (isSimulationFrame(frame)) return true;
+  if (tf_ == nullptr) return false;
+  const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
+  const std::string target =
+      settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  if (!tf_->_frameExists(source) || !tf_->_frameExists(target)) return false;
+  return tf_->canTransform(target, source, at);
+}
+
+bool SimulationDriver::transformsReady(std::string* missing) const {
+  const double t = simulator().time();
+  const double dt = simulator().settings().dt;
+  auto check = [&](const std::string& frame, double when) {
+    if (exactlyKnown(frame, stampOf(when))) return true;
+    if (missing != nullptr) {
+      *missing = "frame '" + frame + "' at t = " + str(when) + " s";
+    }
+    return false;
+  };
+  for (const Pending& p : pending_) {
+    if (p.time > t + 1e-9 * dt) break;
+    const std::string& frame =
+        std::visit([](const auto& c) -> const std::string& { return c.header.frame_id; }, p.command);
+    const bool release = std::holds_alternative<PinCommand>(p.command) &&
+                         std::get<PinCommand>(p.command).action == PinCommand::RELEASE;
+    const bool clear = std::holds_alternative<ForceCommand>(p.command) &&
+                       std::get<ForceCommand>(p.command).action == ForceCommand::CLEAR;
+    if (release || clear) continue;
+    if (!check(frame, t)) return false;
+    if (std::holds_alternative<PinCommand>(p.command) && !check(frame, t + dt)) return false;
+  }
+  for (const auto& [vertex, follow] : follow_) {
+    if (!check(follow.frame, t + dt)) return false;
+  }
+  return true;
 }
 
 Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& stamp) const {
@@ -306,7 +345,20 @@ StepReport SimulationDriver::step() {
     Pending p = std::move(pending_.front());
     pending_.pop_front();
     const Status s = std::visit([this](const auto& c) { return apply(c); }, p.command);
-    if (!s) warnings_.push_back("command could not be applied at t = " + str(t) + " s: " + s.error());
+    if (!s) {
+      warnings_.push_back("command could not be applied at t = " + str(t) + " s: " + s.error());
+      continue;
+    }
+    std::visit(
+        [this, t](auto c) {
+          c.header.stamp = stampOf(t);
+          if constexpr (std::is_same_v<decltype(c), PinCommand>) {
+            appliedPins_.push_back(std::move(c));
+          } else {
+            appliedForces_.push_back(std::move(c));
+          }
+        },
+        p.command);
   }
   if (Status s = simulation_.script.applyDue(sim); !s) warnings_.push_back(s.error());
   followFrames(t + dt);
@@ -318,6 +370,20 @@ void SimulationDriver::reset() {
   simulation_.script.rewind();
   pending_.clear();
   follow_.clear();
+  appliedPins_.clear();
+  appliedForces_.clear();
+}
+
+std::vector<PinCommand> SimulationDriver::takeAppliedPins() {
+  std::vector<PinCommand> out;
+  out.swap(appliedPins_);
+  return out;
+}
+
+std::vector<ForceCommand> SimulationDriver::takeAppliedForces() {
+  std::vector<ForceCommand> out;
+  out.swap(appliedForces_);
+  return out;
 }
 
 std::vector<std::string> SimulationDriver::takeWarnings() {

@@ -1,10 +1,12 @@
 // fem_cloth_sim: runs a scene headless (no ROS master) and prints a summary.
 //
 //   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
-//                 [--duration S] [--set key=value]... [--out DIR] [--every N] [--quiet]
+//                 [--duration S] [--set key=value]... [--out DIR | --out FILE.bag] [--every N]
+//   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
 //
-// Exit status: 0 success, 2 bad scene or command line, 3 the simulation failed (the error says
-// why; the outputs hold everything up to the last good state).
+// Exit status: 0 success, 2 bad scene, bag or command line, 3 the simulation failed (the error
+// says why; CSV outputs hold everything up to the last good state, a bag is not written),
+// 4 with --verify: a recorded state was not reproduced bit for bit.
 #include <CLI/CLI.hpp>
 
 #include <unistd.h>
@@ -21,6 +23,7 @@
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
+#include "fem_cloth/ros/bag_replay.h"
 
 using namespace fem_cloth;
 
@@ -36,6 +39,9 @@ struct Options {
   int every = 0;
   bool quiet = false;
   bool noOutput = false;
+  std::string commands;
+  std::string node = "/fem_cloth_node";
+  bool verify = false;
 };
 
 struct Totals {
@@ -97,6 +103,62 @@ void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stret
          << r.rollbacks << '\n';
 }
 
+// Re-simulation of a recorded run, or a scene, into a bag.
+int runBag(const Options& opt, const std::vector<std::string>& overrides) {
+  BagRunOptions options;
+  options.node = opt.node;
+  options.sceneFile = opt.scene;
+  options.overrides = overrides;
+  options.duration = opt.duration;
+  options.every = opt.every;
+  options.progress = !opt.quiet;
+  if (opt.commands.empty() && opt.scene.empty()) {
+    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
+    return 2;
+  }
+  Expected<BagRunReport> report = runToBag(opt.commands, opt.out, options);
+  if (!report) {
+    const bool failed = report.error().find("the simulation failed") != std::string::npos;
+    std::cerr << "fem_cloth_sim: " << report.error() << (failed ? "; no bag was written" : "")
+              << '\n';
+    return failed ? 3 : 2;
+  }
+  const BagRunReport& r = *report;
+  for (const std::string& w : r.warnings) std::cerr << "fem_cloth_sim: warning: " << w << '\n';
+  std::cout << std::setprecision(4);
+  std::cout << "scene:        " << r.scene << ", " << r.integrator << '\n';
+  if (!opt.commands.empty()) {
+    std::cout << "commands:     " << r.pinCommands << " pin, " << r.forceCommands << " force from "
+              << opt.commands << " ("
+              << (r.exactCommands ? "as applied by the node: exact steps"
+                                  : "as sent: applied at the step after they were recorded")
+              << "), " << r.rejected << " rejected\n";
+  }
+  std::cout << "steps:        " << r.steps << ", simulated " << r.simulated << " s in " << r.wall
+            << " s wall (real-time factor " << r.simulated / std::max(r.wall, 1e-9) << ")\n";
+  if (r.compared > 0) {
+    std::cout << "reproduced:   " << r.identical << " of " << r.compared
+              << " recorded states bit for bit";
+    if (r.identical < r.compared) std::cout << " (first difference at step " << r.firstMismatch << ")";
+    std::cout << '\n';
+  }
+  std::cout << "energy (J):   kinetic " << r.energy.kinetic << ", strain " << r.energy.strain
+            << ", bending " << r.energy.bending << ", gravity " << r.energy.gravity << ", total "
+            << r.energy.total << ", balance error " << r.energy.balanceError << '\n';
+  std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
+  std::cout << "output:       " << opt.out << '\n';
+  if (opt.verify && r.identical < r.compared) {
+    std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
+              << " recorded states were not reproduced\n";
+    return 4;
+  }
+  if (opt.verify && r.compared == 0) {
+    std::cerr << "fem_cloth_sim: --verify: the input bag has no states to compare with\n";
+    return 4;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -105,13 +167,23 @@ int main(int argc, char** argv) {
       "Runs a fem_cloth scene headless (no ROS master needed) and prints a summary.\n"
       "Writes trajectory.csv (time, step, then x y [z] of every vertex) and energy.csv\n"
       "(energies in J, stretch, solver statistics) to the output folder."};
-  app.add_option("--scene", opt.scene, "scene YAML file (see docs/scenes.md)")->required();
+  app.add_option("--scene", opt.scene,
+                 "scene YAML file (see docs/scenes.md); with --commands, replaces the scene "
+                 "stored in the bag");
   app.add_option("--integrator", opt.integrator,
                  "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd");
   app.add_option("--dt", opt.dt, "override integrator.dt (s)");
   app.add_option("--duration", opt.duration, "override the scene's duration (s)");
   app.add_option("--set", opt.overrides, "override any scene key: key.path=value (repeatable)");
-  app.add_option("--out", opt.out, "output folder (default: fem_cloth_output/<scene name>)");
+  app.add_option("--out", opt.out,
+                 "output folder for CSV (default: fem_cloth_output/<scene name>), or a file "
+                 "ending in .bag to write a bag (~scene, ~mesh, ~state, ~energy, ~stats)");
+  app.add_option("--commands", opt.commands,
+                 "re-simulate a recorded run: apply its commands (applied_pin/applied_force, "
+                 "else pin/force) at their stamps, follow its /tf; needs --out FILE.bag");
+  app.add_option("--node", opt.node, "the node whose topics the bags hold (/fem_cloth_node)");
+  app.add_flag("--verify", opt.verify,
+               "with --commands: exit 4 unless every recorded state is reproduced bit for bit");
   app.add_flag("--no-output", opt.noOutput, "write no files, only the summary");
   app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)");
   app.add_flag("--quiet,-q", opt.quiet, "no progress line");
@@ -132,10 +204,22 @@ int main(int argc, char** argv) {
     s << std::setprecision(17) << "integrator.dt=" << opt.dt;
     overrides.push_back(s.str());
   }
-  if (opt.duration != 0.0) {
+  if (opt.duration != 0.0 && opt.commands.empty()) {
     std::ostringstream s;
     s << std::setprecision(17) << "duration=" << opt.duration;
     overrides.push_back(s.str());
+  }
+  const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
+  if (!opt.commands.empty() || bagOut) {
+    if (!bagOut) {
+      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag\n";
+      return 2;
+    }
+    return runBag(opt, overrides);
+  }
+  if (opt.scene.empty()) {
+    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
+    return 2;
   }
   Expected<Scene> scene = loadScene(opt.scene, overrides);
   if (!scene) {

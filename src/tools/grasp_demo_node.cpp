@@ -154,8 +154,14 @@ int main(int argc, char** argv) {
     tf.transform.translation.y = origin.y + sAhead * move.y;
     tf.transform.translation.z = origin.z + sAhead * (move.z + lift);
     tf.transform.rotation.w = 1.0;
-    // One transform per state (a repeated stamp would be dropped by tf listeners).
+    // One transform per state (a repeated stamp would be dropped by tf listeners). The first
+    // one is also sent for the current time, so the grasp instant is covered by tf.
     if (t >= start - 0.2 && tf.header.stamp != lastBroadcast) {
+      if (lastBroadcast.isZero()) {
+        geometry_msgs::TransformStamped now = tf;
+        now.header.stamp = latest->header.stamp;
+        broadcaster.sendTransform(now);
+      }
       broadcaster.sendTransform(tf);
       lastBroadcast = tf.header.stamp;
     }

@@ -18,6 +18,11 @@
 //   start_paused      bool    wait for ~resume or ~step (false)
 //   tf_timeout        double  s after which a frame's newest transform counts as stale (1.0)
 //   strain_color_max  double  strain shown fully red in ~marker (0.05)
+//   step_lag          double  s the node stays behind ROS time in real_time mode, so that the
+//                             commands and transforms for a step have arrived when it is taken:
+//                             what makes a live replay reproduce a recording (0)
+//   replay_bag        string  a recorded run: its scene (unless one is given) and its time
+//                             origin (start_time) are used, for replaying it live
 #pragma once
 
 #include <ros/ros.h>
@@ -85,7 +90,9 @@ class ClothNode {
   bool publishVelocities_ = false, alwaysPublish_ = false, startPaused_ = false;
   double tfTimeout_ = 1.0, strainColorMax_ = 0.05;
   bool hasStartTime_ = false;
-  double startTime_ = 0.0;
+  ros::Time startTime_;  // exact: a time origin from a bag must not pass through a double
+  double stepLag_ = 0.0;
+  std::string replayBag_;
 
   // Run state.
   bool paused_ = false;
@@ -98,10 +105,12 @@ class ClothNode {
   std::uint64_t rejected_ = 0, failedSteps_ = 0;
   std::string lastProblem_;
   ros::WallTime lastDiagnostics_;
+  ros::WallTime tfWaitStart_;
 
   ros::Subscriber pinSub_, forceSub_;
   ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, markerPub_, pinForcesPub_,
-      pinWrenchPub_, clockPub_, diagnosticsPub_;
+      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_;
+  std::string sceneText_;
   ros::ServiceServer resetSrv_, pauseSrv_, resumeSrv_, stepSrv_, advanceSrv_;
 };
 

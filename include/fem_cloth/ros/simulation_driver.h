@@ -68,6 +68,13 @@ class SimulationDriver {
   Status submit(const ForceCommand& command);
   std::size_t pendingCommands() const { return pending_.size(); }
 
+  /// True when every transform the next step needs is known at exactly the time it is needed:
+  /// the frames of the commands due at the start of the step, and the frames followed by pins
+  /// at its end. Otherwise `missing` names one. Stepping anyway falls back to a frame's newest
+  /// transform, which a replay of the run may not see the same way: the node waits for this
+  /// (up to tf_timeout) before each step.
+  bool transformsReady(std::string* missing) const;
+
   /// Applies the commands that are due, moves frame-following pins to where their frames are at
   /// the end of the step, and advances one step. Commands that fail when applied are reported
   /// through takeWarnings(); the step itself fails only as Simulator::step does.
@@ -77,6 +84,10 @@ class SimulationDriver {
   /// Problems met while stepping (a frame no longer available, a command that could not be
   /// applied), since the last call.
   std::vector<std::string> takeWarnings();
+  /// The commands applied since the last call, each stamped with the simulation time (as ROS
+  /// time) of the step before which it took effect: replaying exactly these reproduces the run.
+  std::vector<PinCommand> takeAppliedPins();
+  std::vector<ForceCommand> takeAppliedForces();
 
   // --- Messages -------------------------------------------------------------------------------
   shape_msgs::Mesh meshMessage() const;
@@ -104,6 +115,7 @@ class SimulationDriver {
   bool isSimulationFrame(const std::string& frame) const;
   std::optional<Eigen::Isometry3d> transform(const std::string& frame, const ros::Time& at,
                                              std::string* why) const;
+  bool exactlyKnown(const std::string& frame, const ros::Time& at) const;
   double commandTime(const ros::Time& stamp) const;
   Status apply(const PinCommand& command);
   Status apply(const ForceCommand& command);
@@ -117,6 +129,8 @@ class SimulationDriver {
   std::uint64_t arrivals_ = 0;
   std::map<Index, Follow> follow_;
   std::vector<std::string> warnings_;
+  std::vector<PinCommand> appliedPins_;
+  std::vector<ForceCommand> appliedForces_;
   EdgeStretchMeter stretch_;
   std::vector<double> strains_;
 };

@@ -1,0 +1,87 @@
+// Runs in bags: what a recording of fem_cloth_node holds, read back for re-simulation, and
+// written by the offline re-simulation. No ROS master is needed.
+//
+// A recording (launch/record.launch) holds, for a node named NS:
+//   NS/scene          std_msgs/String (latched)  the scene YAML the node ran
+//   NS/applied_pin    fem_cloth/PinCommand       commands as applied, stamped with the step's time
+//   NS/applied_force  fem_cloth/ForceCommand
+//   NS/pin, NS/force  the commands as sent (used when the applied ones are missing)
+//   NS/mesh, NS/state, NS/energy, NS/stats, NS/pin_forces, NS/pin_wrench, /tf, /tf_static
+#pragma once
+
+#include <rosbag/bag.h>
+#include <shape_msgs/Mesh.h>
+#include <tf2/buffer_core.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/PinCommand.h"
+#include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/mesh.h"
+
+namespace fem_cloth {
+
+/// The topic names of a node's run.
+struct RunTopics {
+  explicit RunTopics(const std::string& node = "/fem_cloth_node");
+  std::string scene, mesh, state, energy, stats, pinForces, pinWrench, pin, force, appliedPin,
+      appliedForce;
+};
+
+struct RecordedState {
+  std::uint64_t step = 0;
+  ros::Time stamp;
+  std::string hash;
+};
+
+/// A run read back from a bag.
+struct RecordedRun {
+  std::string path;
+  std::string sceneYaml;  ///< empty when the bag holds no scene
+  std::string frame;      ///< the simulation frame of the recorded states (empty if none)
+  std::optional<shape_msgs::Mesh> mesh;
+  std::vector<RecordedState> states;
+  /// The commands to replay: the applied ones when the bag has them (exact), else the ones sent,
+  /// a zero stamp replaced by the time the message was recorded.
+  std::vector<PinCommand> pins;
+  std::vector<ForceCommand> forces;
+  bool exactCommands = false;  ///< the commands came from applied_pin / applied_force
+  std::shared_ptr<tf2::BufferCore> tf;  ///< every /tf and /tf_static message of the bag
+  ros::Time begin, end;  ///< the bag's time range
+};
+
+/// Reads a run. Errors name the problem: a missing or unreadable file, a truncated or otherwise
+/// damaged bag, a known topic with the wrong message type.
+Expected<RecordedRun> readRun(const std::string& path, const std::string& node = "/fem_cloth_node");
+
+/// The ROS time of simulation time 0 of a recorded run (from its states and the step size).
+std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt);
+
+/// Checks that a mesh stored in a bag is the scene's mesh (same triangles, same rest positions).
+Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene);
+
+/// Writes a bag through a temporary file that takes the final name only in close(): a run that
+/// fails leaves no output that looks valid.
+class RunWriter {
+ public:
+  static Expected<std::unique_ptr<RunWriter>> open(const std::string& path);
+  ~RunWriter();
+  template <class M>
+  void write(const std::string& topic, const ros::Time& time, const M& message) {
+    bag_.write(topic, time, message);
+  }
+  /// Closes and renames the bag into place.
+  Status close();
+
+ private:
+  explicit RunWriter(std::string path) : path_(std::move(path)) {}
+  std::string path_;
+  rosbag::Bag bag_;
+  bool closed_ = false;
+};
+
+}  // namespace fem_cloth

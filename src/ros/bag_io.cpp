@@ -1,0 +1,198 @@
+#include "fem_cloth/ros/bag_io.h"
+
+#include <rosbag/exceptions.h>
+#include <rosbag/view.h>
+#include <std_msgs/String.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+
+#include "fem_cloth/ClothState.h"
+
+namespace fem_cloth {
+
+RunTopics::RunTopics(const std::string& node) {
+  std::string ns = node.empty() ? "/fem_cloth_node" : node;
+  if (ns[0] != '/') ns = "/" + ns;
+  if (ns.back() == '/') ns.pop_back();
+  scene = ns + "/scene";
+  mesh = ns + "/mesh";
+  state = ns + "/state";
+  energy = ns + "/energy";
+  stats = ns + "/stats";
+  pinForces = ns + "/pin_forces";
+  pinWrench = ns + "/pin_wrench";
+  pin = ns + "/pin";
+  force = ns + "/force";
+  appliedPin = ns + "/applied_pin";
+  appliedForce = ns + "/applied_force";
+}
+
+namespace {
+
+template <class M>
+Status expectType(const rosbag::ConnectionInfo& c) {
+  const std::string type = ros::message_traits::DataType<M>::value();
+  const std::string md5 = ros::message_traits::MD5Sum<M>::value();
+  if (c.datatype != type) {
+    return Error{"topic " + c.topic + " holds " + c.datatype + " messages, expected " + type};
+  }
+  if (c.md5sum != md5) {
+    return Error{"topic " + c.topic + " holds " + type +
+                 " messages of another definition (md5 " + c.md5sum + ", this build " + md5 +
+                 "): recorded with an incompatible version of fem_cloth"};
+  }
+  return Status::success();
+}
+
+}  // namespace
+
+Expected<RecordedRun> readRun(const std::string& path, const std::string& node) {
+  if (!std::filesystem::exists(path)) return Error{"no bag at '" + path + "'"};
+  const RunTopics topics(node);
+  RecordedRun run;
+  run.path = path;
+  rosbag::Bag bag;
+  try {
+    bag.open(path, rosbag::bagmode::Read);
+  } catch (const rosbag::BagUnindexedException&) {
+    return Error{"bag '" + path + "' is truncated or was not closed (no index): "
+                 "'rosbag reindex' may recover what it holds"};
+  } catch (const rosbag::BagException& e) {
+    return Error{"cannot read bag '" + path + "': " + e.what()};
+  }
+  try {
+    rosbag::View view(bag);
+    run.begin = view.getBeginTime();
+    run.end = view.getEndTime();
+    // Check the types of every topic we read before reading any of them.
+    for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+      Status s;
+      if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
+      if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
+      if (c->topic == topics.state) s = expectType<ClothState>(*c);
+      if (c->topic == topics.pin || c->topic == topics.appliedPin) s = expectType<PinCommand>(*c);
+      if (c->topic == topics.force || c->topic == topics.appliedForce) s = expectType<ForceCommand>(*c);
+      if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
+      if (!s) return Error{"bag '" + path + "': " + s.error()};
+    }
+    const double span = std::max((run.end - run.begin).toSec(), 0.0);
+    run.tf = std::make_shared<tf2::BufferCore>(ros::Duration(span + 60.0));
+    std::vector<PinCommand> sentPins, appliedPins;
+    std::vector<ForceCommand> sentForces, appliedForces;
+    for (const rosbag::MessageInstance& m : view) {
+      const std::string& topic = m.getTopic();
+      if (topic == topics.scene) {
+        if (auto msg = m.instantiate<std_msgs::String>()) run.sceneYaml = msg->data;
+      } else if (topic == topics.mesh) {
+        if (auto msg = m.instantiate<shape_msgs::Mesh>(); msg && !run.mesh) run.mesh = *msg;
+      } else if (topic == topics.state) {
+        if (auto msg = m.instantiate<ClothState>()) {
+          if (run.frame.empty()) run.frame = msg->header.frame_id;
+          run.states.push_back({msg->step, msg->header.stamp, msg->state_hash});
+        }
+      } else if (topic == topics.appliedPin) {
+        if (auto msg = m.instantiate<PinCommand>()) appliedPins.push_back(*msg);
+      } else if (topic == topics.appliedForce) {
+        if (auto msg = m.instantiate<ForceCommand>()) appliedForces.push_back(*msg);
+      } else if (topic == topics.pin) {
+        if (auto msg = m.instantiate<PinCommand>()) {
+          sentPins.push_back(*msg);
+          if (sentPins.back().header.stamp.isZero()) sentPins.back().header.stamp = m.getTime();
+        }
+      } else if (topic == topics.force) {
+        if (auto msg = m.instantiate<ForceCommand>()) {
+          sentForces.push_back(*msg);
+          if (sentForces.back().header.stamp.isZero()) sentForces.back().header.stamp = m.getTime();
+        }
+      } else if (topic == "/tf" || topic == "/tf_static") {
+        if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
+          for (const auto& t : msg->transforms) run.tf->setTransform(t, "bag", topic == "/tf_static");
+        }
+      }
+    }
+    run.exactCommands = !appliedPins.empty() || !appliedForces.empty() ||
+                        (sentPins.empty() && sentForces.empty());
+    run.pins = run.exactCommands ? std::move(appliedPins) : std::move(sentPins);
+    run.forces = run.exactCommands ? std::move(appliedForces) : std::move(sentForces);
+  } catch (const rosbag::BagException& e) {
+    return Error{"bag '" + path + "' is damaged: " + e.what()};
+  }
+  return run;
+}
+
+std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt) {
+  if (run.states.empty()) return std::nullopt;
+  const RecordedState& s = run.states.front();
+  return s.stamp - ros::Duration(static_cast<double>(s.step) * dt);
+}
+
+Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {
+  const std::string counts = std::to_string(recorded.vertices.size()) + " vertices, " +
+                             std::to_string(recorded.triangles.size()) + " triangles";
+  const std::string sceneCounts = std::to_string(scene.numVertices()) + " vertices, " +
+                                  std::to_string(scene.numTriangles()) + " triangles";
+  if (recorded.vertices.size() != static_cast<std::size_t>(scene.numVertices()) ||
+      recorded.triangles.size() != scene.triangles.size()) {
+    return Error{"the mesh stored in the bag (" + counts + ") is not the scene's mesh (" +
+                 sceneCounts + ")"};
+  }
+  for (std::size_t t = 0; t < scene.triangles.size(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      if (recorded.triangles[t].vertex_indices[k] != static_cast<std::uint32_t>(scene.triangles[t][k])) {
+        return Error{"the mesh stored in the bag differs from the scene's at triangle " +
+                     std::to_string(t)};
+      }
+    }
+  }
+  const int d = scene.dim;
+  for (Index i = 0; i < scene.numVertices(); ++i) {
+    const auto& p = recorded.vertices[static_cast<std::size_t>(i)];
+    const double c[3] = {p.x, p.y, p.z};
+    for (int k = 0; k < d; ++k) {
+      if (std::abs(c[k] - scene.restPositions[d * i + k]) > 1e-9) {
+        return Error{"the mesh stored in the bag has vertex " + std::to_string(i) +
+                     " at another rest position than the scene"};
+      }
+    }
+  }
+  return Status::success();
+}
+
+Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
+  std::unique_ptr<RunWriter> writer(new RunWriter(path));
+  try {
+    writer->bag_.open(path + ".partial", rosbag::bagmode::Write);
+  } catch (const rosbag::BagException& e) {
+    return Error{"cannot write bag '" + path + "': " + e.what()};
+  }
+  return writer;
+}
+
+RunWriter::~RunWriter() {
+  if (!closed_) {
+    try {
+      bag_.close();
+    } catch (const rosbag::BagException&) {
+    }
+    std::remove((path_ + ".partial").c_str());
+  }
+}
+
+Status RunWriter::close() {
+  try {
+    bag_.close();
+  } catch (const rosbag::BagException& e) {
+    return Error{"cannot finish bag '" + path_ + "': " + e.what()};
+  }
+  std::error_code ec;
+  std::filesystem::rename(path_ + ".partial", path_, ec);
+  if (ec) return Error{"cannot rename '" + path_ + ".partial' to '" + path_ + "': " + ec.message()};
+  closed_ = true;
+  return Status::success();
+}
+
+}  // namespace fem_cloth
