@@ -61,6 +61,10 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
   } catch (const rosbag::BagUnindexedException&) {
     return Error{"bag '" + path + "' is truncated or was not closed (no index): "
                  "'rosbag reindex' may recover what it holds"};
+  } catch (const rosbag::BagIOException& e) {
+    // Reading past the end of the file: the index the header points to is missing.
+    return Error{"bag '" + path + "' is truncated or damaged (" + e.what() +
+                 "): 'rosbag reindex' may recover what it holds"};
   } catch (const rosbag::BagException& e) {
     return Error{"cannot read bag '" + path + "': " + e.what()};
   }
@@ -119,7 +123,7 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     run.pins = run.exactCommands ? std::move(appliedPins) : std::move(sentPins);
     run.forces = run.exactCommands ? std::move(appliedForces) : std::move(sentForces);
   } catch (const rosbag::BagException& e) {
-    return Error{"bag '" + path + "' is damaged: " + e.what()};
+    return Error{"bag '" + path + "' is truncated or damaged: " + e.what()};
   }
   return run;
 }

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "../run_program.h"
 #include "../temp_dir.h"
 
 namespace {
@@ -24,12 +25,7 @@ const fem_cloth::test::TempDir& scratch() {
   return dir;
 }
 
-std::string readFile(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+std::string readFile(const std::string& path) { return fem_cloth::test::readTextFile(path); }
 
 std::vector<std::string> lines(const std::string& text) {
   std::vector<std::string> out;
@@ -38,22 +34,11 @@ std::vector<std::string> lines(const std::string& text) {
   return out;
 }
 
-struct Result {
-  int status = -1;
-  std::string out, err;
-};
+using Result = fem_cloth::test::ProgramResult;
 
 /// Runs the program with the arguments (single-quoted for the shell).
 Result runSim(const std::vector<std::string>& args) {
-  std::string command = "'" + kProgram + "'";
-  for (const std::string& a : args) command += " '" + a + "'";
-  const std::string out = scratch().path("stdout"), err = scratch().path("stderr");
-  const int raw = std::system((command + " >'" + out + "' 2>'" + err + "'").c_str());
-  Result r;
-  r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-  r.out = readFile(out);
-  r.err = readFile(err);
-  return r;
+  return fem_cloth::test::runProgram(kProgram, args, scratch());
 }
 
 /// Exit 2 and a single stderr line "fem_cloth_sim: ..." naming every word in `mentions`.
