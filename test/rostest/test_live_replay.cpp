@@ -5,6 +5,7 @@
 
 #include <map>
 
+#include "../run_program.h"
 #include "node_test_support.h"
 
 using namespace fem_cloth_test;
@@ -46,6 +47,13 @@ TEST(LiveReplay, ReproducesTheRecordedStates) {
   EXPECT_EQ(identical, compared);
   // Nearly all of the recording was replayed (the first states may come before we listened).
   EXPECT_GT(compared, recorded.size() * 3 / 4) << compared << " of " << recorded.size();
+
+  // And the offline re-simulation of the same bag reproduces it too: live and offline agree.
+  fem_cloth::test::TempDir dir("fem_cloth_live_replay");
+  const fem_cloth::test::ProgramResult offline = fem_cloth::test::runProgram(
+      FEM_CLOTH_SIM_EXE, {"--commands", fixture, "--out", dir.path("offline.bag"), "--verify", "-q"},
+      dir);
+  EXPECT_EQ(offline.status, 0) << offline.out << offline.err;
 }
 
 int main(int argc, char** argv) {
