@@ -1,0 +1,190 @@
+// Contact of the cloth with rigid obstacles and, optionally, with itself.
+//
+// Implicit steppers (backward Euler, BDF2): Incremental Potential Contact (Li et al., "Incremental
+// Potential Contact", SIGGRAPH 2020). The incremental potential gains
+//     c^2 (kappa B(x) + D(x))
+// with B a sum of log barriers (barrier.h) over every vertex-obstacle pair and, with self-collision,
+// every point-triangle and edge-edge pair closer than the contact distance dHat, and D the lagged
+// friction potential (section 5). Each barrier is weighted by the mass it pushes (the vertex's, or
+// the mean of the pair's four vertices), so one stiffness kappa puts every vertex resting under
+// the same acceleration at the same distance. The Newton line search never passes through
+// anything: each step is bounded by continuous collision detection (ccd.h), and the barrier is
+// +inf at zero distance. Pinned vertices are kinematic: they take no contact with obstacles (the
+// pin wins), but do take part in self-contact.
+//
+// Explicit steppers and XPBD: vertices that come closer than dHat to an obstacle are projected out
+// to dHat along its normal, and Coulomb friction removes tangential motion relative to the
+// obstacle up to mu times that normal correction (Bridson, Fedkiw & Anderson, "Robust Treatment of
+// Collisions, Contact and Friction for Cloth Animation", SIGGRAPH 2002, section 7). No
+// self-collision there.
+//
+// A scene without obstacles and without self-collision builds no ContactModel at all: no
+// contact code runs (StepReport::contactChecks stays 0).
+#pragma once
+
+#include <Eigen/SparseCore>
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/contact/obstacle.h"
+#include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/model.h"
+
+namespace fem_cloth {
+
+struct ContactSettings {
+  double distance = 1e-3;  ///< dHat (m): barriers act below it; explicit steppers keep vertices at it
+  /// Barrier stiffness, as the acceleration (m/s^2) the barrier exerts on a vertex at dHat/2
+  /// (kappa = stiffness / (|b'(dHat^2/4)| dHat)). 0: automatic, the magnitude of gravity (at least
+  /// 9.81), so that a cloth resting under its own weight settles at about dHat/2.
+  double stiffness = 0.0;
+  bool selfCollision = false;
+  double selfFriction = 0.0;       ///< mu of cloth on cloth
+  double frictionVelocity = 1e-3;  ///< eps_v (m/s): slower relative sliding counts as sticking
+};
+
+/// The force the cloth exerts on an obstacle (N) and its moment about the simulation frame's
+/// origin (N m), both in the simulation frame.
+struct ObstacleWrench {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();
+};
+
+/// What contact handling did in a (sub)step.
+struct ContactStats {
+  int contacts = 0;           ///< pairs closer than dHat (implicit) or vertices projected (others)
+  std::uint64_t checks = 0;   ///< distance evaluations (vertex-obstacle and primitive pairs)
+  double work = 0.0;          ///< J, work of the contact and friction forces on the cloth
+  double minDistance = std::numeric_limits<double>::infinity();  ///< m, over contacts considered
+};
+
+class ContactModel {
+ public:
+  /// gravity: its magnitude (m/s^2) sets the automatic stiffness.
+  ContactModel(const Model& model, std::vector<Obstacle> obstacles, ContactSettings settings,
+               double gravity);
+
+  const ContactSettings& settings() const { return settings_; }
+  /// kappa (1/(s^2 m^2)): a barrier's energy is kappa m b(d^2) with m its mass weight (kg).
+  double barrierStiffness() const { return kappa_; }
+  std::size_t numObstacles() const { return obstacles_.size(); }
+  const Obstacle& obstacle(std::size_t k) const { return obstacles_[k]; }
+
+  // --- Obstacle motion -------------------------------------------------------------------------
+  /// The world pose of obstacle k's shape now (after the last step).
+  Eigen::Isometry3d shapePose(std::size_t k) const { return shapePoseAt(k, 0.0); }
+  /// Pose of the frame obstacle k follows at the start and the end of the next step (the ROS
+  /// layer sets it from tf before each step; it stays where it is otherwise).
+  void setFramePose(std::size_t k, const Eigen::Isometry3d& start, const Eigen::Isometry3d& end);
+  /// Before a step from `time` (s) over dt (s); scripted motion is evaluated from these.
+  void beginStep(double time, double dt);
+  /// After a successful step: the end of the step becomes now.
+  void commitStep();
+  /// Back to time 0; frames to the identity.
+  void reset();
+  /// Shape pose at fraction f in [0, 1] of the step being taken.
+  Eigen::Isometry3d shapePoseAt(std::size_t k, double fraction) const;
+
+  /// Wrench on each obstacle at the end of the last step.
+  const std::vector<ObstacleWrench>& wrenches() const { return wrenches_; }
+  /// Distances now: the smallest over every free vertex and obstacle, and (with self-collision)
+  /// over every point-triangle and edge-edge pair near each other (m; inf if none).
+  double minimumDistance(const VectorX& x, const std::vector<char>& pinned);
+
+  // --- Implicit steppers (IPC) -----------------------------------------------------------------
+  /// Starts a substep of length h (s) over the fraction [f0, f1] of the step, from positions x0,
+  /// with velocity gamma (x - xc): obstacle poses, and the lagged friction of Li et al. 2020
+  /// (section 5.3): normal forces, tangent bases and contact points at x0, fixed for the substep.
+  void beginSubstep(const VectorX& x0, const VectorX& xc, double gamma, double h,
+                    const std::vector<char>& pinned, double f0, double f1);
+  /// Makes the first Newton iterate safe. On entry x is x0 with pinned vertices at their targets;
+  /// free vertices that a moving obstacle comes to within dHat of are carried along with it
+  /// (rigidly, which keeps their distance). Fails, naming the vertex, when that still leaves one
+  /// inside an obstacle, or when the pins' motion would pass the cloth through itself.
+  Status feasibleStart(const VectorX& x0, VectorX& x);
+  /// Broad phase for the positions x + t dx, t in [0, 1] (dx may be zero), kept for the
+  /// evaluations that follow, and the largest t that additive CCD finds collision-free.
+  double prepareSegment(const VectorX& x, const VectorX& dx);
+  /// kappa B(x) + D(x) (J), +inf if a distance is zero or negative. Adds scale x the gradient to
+  /// `gradient`, and scale x the PSD-projected Hessian: into `hessian` where its pattern has the
+  /// entries, else to `outside` as triplets. Uses the pairs of the last prepareSegment().
+  double evaluate(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
+                  std::vector<Eigen::Triplet<double>>* outside, double scale);
+  /// After a converged substep at x (from x0): contacts, work, and the obstacles' wrenches.
+  void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
+
+  // --- Explicit steppers and XPBD (projection) -------------------------------------------------
+  /// Starts a projection substep over the fraction [f0, f1] of the step.
+  void beginProjection(double f0, double f1);
+  /// Moves every free vertex closer than dHat to an obstacle (at the end of the substep) out to
+  /// dHat along the obstacle's normal; adds the distance moved to normalPush (per vertex, m) and
+  /// the displacement to correction (per DOF, m). Returns how many vertices it moved.
+  int projectOntoObstacles(VectorX& x, const std::vector<char>& pinned, VectorX& normalPush,
+                           VectorX& correction);
+  /// Coulomb friction on the vertices projected in this substep: their displacement since xStart,
+  /// relative to the obstacle's surface, loses its tangential part up to mu x normalPush.
+  void applyProjectionFriction(VectorX& x, const VectorX& xStart, const VectorX& normalPush,
+                               VectorX& correction);
+  /// After a projection substep of length h: contact force m correction / h^2 on each vertex,
+  /// its work over x - xStart, the obstacles' wrenches and the contact count.
+  void finishProjection(const VectorX& x, const VectorX& xStart, const VectorX& correction,
+                        double h, ContactStats& stats);
+
+  /// Distance evaluations so far (never reset: callers take differences).
+  std::uint64_t checks() const { return checks_; }
+
+ private:
+  struct Friction {
+    std::array<Index, 4> vertices{};
+    int count = 1;
+    Eigen::Vector4d weights = Eigen::Vector4d::Zero();
+    Eigen::Matrix<double, 3, 2> tangent;
+    Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // obstacle motion over the substep / (h gamma)
+    double muLambda = 0.0;                             // N
+    int obstacle = -1;                                 // -1: self-contact
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();   // contact point (for the torque)
+  };
+  void setSubstepPoses(double f0, double f1);
+  bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
+  SignedDistance obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd,
+                                  bool wantHessian);
+  void addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
+                std::vector<Eigen::Triplet<double>>* outside) const;
+  double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
+                     std::vector<Eigen::Triplet<double>>* outside, double scale,
+                     std::vector<ObstacleWrench>* wrench, ContactStats* stats);
+  void selfCandidates(const VectorX& x, const VectorX* dx);
+  double edgeMollifierThreshold(Index ea, Index eb) const;
+
+  std::shared_ptr<const Mesh> mesh_;
+  VectorX mass_;  // per vertex (kg)
+  std::vector<Obstacle> obstacles_;
+  ContactSettings settings_;
+  double sHat_ = 0.0;
+  double kappa_ = 0.0;
+  double cellSize_ = 0.0;
+  std::vector<std::array<Index, 2>> edges_;
+  std::vector<double> restEdgeSquared_;
+
+  // Motion over the step being taken.
+  double time_ = 0.0, dt_ = 0.0;
+  std::vector<Eigen::Isometry3d> frameStart_, frameEnd_;
+
+  // The current substep.
+  const std::vector<char>* pinned_ = nullptr;
+  std::vector<Eigen::Isometry3d> poseStart_, poseEnd_, inverseStart_, inverseEnd_;
+  std::vector<std::pair<int, int>> pointTriangle_, edgeEdge_;
+  std::vector<Friction> friction_;
+  double frictionEps_ = 0.0;  // m: eps_v / gamma
+  VectorX frictionOrigin_;    // xc: relative displacements are measured from it
+  std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none
+
+  std::vector<ObstacleWrench> wrenches_;
+  std::uint64_t checks_ = 0;
+};
+
+}  // namespace fem_cloth

@@ -1,0 +1,597 @@
+#include "fem_cloth/core/contact/contact_model.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "fem_cloth/core/contact/barrier.h"
+#include "fem_cloth/core/contact/broad_phase.h"
+#include "fem_cloth/core/contact/ccd.h"
+#include "fem_cloth/core/contact/primitive_distance.h"
+
+namespace fem_cloth {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Clamps the negative eigenvalues of a symmetric matrix to zero (Li et al. 2020, section 4.3:
+// each contact's Hessian is projected before assembly, so Newton directions descend).
+template <int N>
+Eigen::Matrix<double, N, N> projectPsd(const Eigen::Matrix<double, N, N>& A) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(A);
+  const Eigen::Matrix<double, N, 1> lambda = eig.eigenvalues().cwiseMax(0.0);
+  return eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+// An orthonormal basis of the plane normal to n (3 x 2).
+Eigen::Matrix<double, 3, 2> tangentBasis(const Eigen::Vector3d& n) {
+  const Eigen::Vector3d a = std::abs(n.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d t1 = (a - a.dot(n) * n).normalized();
+  Eigen::Matrix<double, 3, 2> T;
+  T << t1, n.cross(t1);
+  return T;
+}
+
+Eigen::Vector3d vertex(const VectorX& x, Index i) { return x.segment<3>(3 * i); }
+
+}  // namespace
+
+ContactModel::ContactModel(const Model& model, std::vector<Obstacle> obstacles,
+                           ContactSettings settings, double gravity)
+    : mesh_(model.sharedMesh()),
+      mass_(model.vertexMasses()),
+      obstacles_(std::move(obstacles)),
+      settings_(settings) {
+  const double dHat = settings_.distance;
+  sHat_ = dHat * dHat;
+  // The barrier force on a vertex of mass m at distance d is kappa m |b'(d^2)| 2 d; at d = dHat/2
+  // it is to be m times the stiffness acceleration.
+  const double acceleration = settings_.stiffness > 0.0 ? settings_.stiffness : std::max(gravity, 9.81);
+  kappa_ = acceleration / (std::abs(barrier::first(0.25 * sHat_, sHat_)) * dHat);
+  edges_ = uniqueEdges(mesh_->triangles);
+  double meanEdge = 0.0;
+  for (const auto& e : edges_) {
+    const double l2 = (vertex(mesh_->restPositions, e[0]) - vertex(mesh_->restPositions, e[1])).squaredNorm();
+    restEdgeSquared_.push_back(l2);
+    meanEdge += std::sqrt(l2);
+  }
+  meanEdge /= std::max<std::size_t>(edges_.size(), 1);
+  cellSize_ = std::max(meanEdge, 2.0 * dHat);
+  frameStart_.assign(obstacles_.size(), Eigen::Isometry3d::Identity());
+  frameEnd_ = frameStart_;
+  poseStart_ = poseEnd_ = inverseStart_ = inverseEnd_ = frameStart_;
+  wrenches_.assign(obstacles_.size(), ObstacleWrench());
+  projectedBy_.assign(static_cast<std::size_t>(mesh_->numVertices()), -1);
+  setSubstepPoses(0.0, 0.0);
+}
+
+// --- Obstacle motion ---------------------------------------------------------------------------
+
+void ContactModel::setFramePose(std::size_t k, const Eigen::Isometry3d& start,
+                                const Eigen::Isometry3d& end) {
+  frameStart_[k] = start;
+  frameEnd_[k] = end;
+}
+
+void ContactModel::beginStep(double time, double dt) {
+  time_ = time;
+  dt_ = dt;
+}
+
+void ContactModel::commitStep() {
+  time_ += dt_;
+  dt_ = 0.0;
+  frameStart_ = frameEnd_;
+}
+
+void ContactModel::reset() {
+  time_ = dt_ = 0.0;
+  std::fill(frameStart_.begin(), frameStart_.end(), Eigen::Isometry3d::Identity());
+  frameEnd_ = frameStart_;
+  std::fill(wrenches_.begin(), wrenches_.end(), ObstacleWrench());
+}
+
+Eigen::Isometry3d ContactModel::shapePoseAt(std::size_t k, double fraction) const {
+  const Obstacle& o = obstacles_[k];
+  Eigen::Isometry3d pose = interpolatePose(frameStart_[k], frameEnd_[k], fraction);
+  if (o.scripted()) pose.translate(o.offsetAt(time_ + fraction * dt_));
+  return pose * o.geometry;
+}
+
+void ContactModel::setSubstepPoses(double f0, double f1) {
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    poseStart_[k] = shapePoseAt(k, f0);
+    poseEnd_[k] = shapePoseAt(k, f1);
+    inverseStart_[k] = poseStart_[k].inverse();
+    inverseEnd_[k] = poseEnd_[k].inverse();
+  }
+}
+
+SignedDistance ContactModel::obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd,
+                                              bool wantHessian) {
+  ++checks_;
+  const Eigen::Isometry3d& pose = atEnd ? poseEnd_[k] : poseStart_[k];
+  const Eigen::Isometry3d& inverse = atEnd ? inverseEnd_[k] : inverseStart_[k];
+  SignedDistance sd = signedDistance(obstacles_[k].shape, inverse * p, wantHessian);
+  sd.normal = pose.linear() * sd.normal;
+  sd.closest = pose * sd.closest;
+  if (wantHessian) sd.hessian = pose.linear() * sd.hessian * pose.linear().transpose();
+  return sd;
+}
+
+double ContactModel::minimumDistance(const VectorX& x, const std::vector<char>& pinned) {
+  pinned_ = &pinned;
+  setSubstepPoses(0.0, 0.0);
+  double smallest = kInf;
+  for (Index i = 0; i < mesh_->numVertices(); ++i) {
+    if (!isFree(i)) continue;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+      smallest = std::min(smallest, obstacleDistance(k, vertex(x, i), true, false).distance);
+    }
+  }
+  if (settings_.selfCollision) {
+    selfCandidates(x, nullptr);
+    for (const auto& [p, t] : pointTriangle_) {
+      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+      ++checks_;
+      smallest = std::min(smallest, std::sqrt(pointTriangleDistance(vertex(x, p), vertex(x, tri[0]),
+                                                                    vertex(x, tri[1]), vertex(x, tri[2]))
+                                                  .squared));
+    }
+    for (const auto& [a, b] : edgeEdge_) {
+      const auto& ea = edges_[static_cast<std::size_t>(a)];
+      const auto& eb = edges_[static_cast<std::size_t>(b)];
+      ++checks_;
+      smallest = std::min(smallest, std::sqrt(edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]),
+                                                               vertex(x, eb[0]), vertex(x, eb[1]))
+                                                  .squared));
+    }
+  }
+  pinned_ = nullptr;
+  return smallest;
+}
+
+// --- Self-contact broad phase ------------------------------------------------------------------
+
+void ContactModel::selfCandidates(const VectorX& x, const VectorX* dx) {
+  const Mesh& mesh = *mesh_;
+  const Index n = mesh.numVertices();
+  // Boxes over the motion, each inflated by dHat/2: two overlap when the primitives may come
+  // within dHat of each other.
+  auto box = [&](std::initializer_list<Index> vertices) {
+    Aabb b;
+    for (Index v : vertices) {
+      b.extend(vertex(x, v));
+      if (dx != nullptr) b.extend(vertex(x, v) + vertex(*dx, v));
+    }
+    b.inflate(0.5 * settings_.distance);
+    return b;
+  };
+  std::vector<Aabb> points, triangles, edges;
+  points.reserve(static_cast<std::size_t>(n));
+  for (Index v = 0; v < n; ++v) points.push_back(box({v}));
+  for (const Triangle& t : mesh.triangles) triangles.push_back(box({t[0], t[1], t[2]}));
+  for (const auto& e : edges_) edges.push_back(box({e[0], e[1]}));
+  // Pairs that share a vertex are never in contact: they touch by construction.
+  overlappingPairs(points, triangles, false, cellSize_,
+                   [&](int p, int t) {
+                     const Triangle& tri = mesh.triangles[static_cast<std::size_t>(t)];
+                     return tri[0] != p && tri[1] != p && tri[2] != p;
+                   },
+                   pointTriangle_);
+  overlappingPairs(edges, edges, true, cellSize_,
+                   [&](int a, int b) {
+                     const auto& ea = edges_[static_cast<std::size_t>(a)];
+                     const auto& eb = edges_[static_cast<std::size_t>(b)];
+                     return ea[0] != eb[0] && ea[0] != eb[1] && ea[1] != eb[0] && ea[1] != eb[1];
+                   },
+                   edgeEdge_);
+}
+
+double ContactModel::edgeMollifierThreshold(Index ea, Index eb) const {
+  // Li et al. 2020, section 4.3: eps_x = 1e-3 |ea_rest|^2 |eb_rest|^2.
+  return 1e-3 * restEdgeSquared_[static_cast<std::size_t>(ea)] *
+         restEdgeSquared_[static_cast<std::size_t>(eb)];
+}
+
+// --- Implicit steppers -------------------------------------------------------------------------
+
+void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gamma, double h,
+                                const std::vector<char>& pinned, double f0, double f1) {
+  pinned_ = &pinned;
+  setSubstepPoses(f0, f1);
+  friction_.clear();
+  frictionEps_ = settings_.frictionVelocity / gamma;
+  // Lagged friction (Li et al. 2020, section 5.3): the normal force lambda of every contact at
+  // the start of the substep, its tangent plane and the relative motion of the two sides.
+  const double dHat = settings_.distance;
+  for (Index i = 0; i < mesh_->numVertices(); ++i) {
+    if (!isFree(i)) continue;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+      if (!(obstacles_[k].friction > 0.0)) continue;
+      const SignedDistance sd = obstacleDistance(k, vertex(x0, i), false, false);
+      if (!(sd.distance > 0.0 && sd.distance < dHat)) continue;
+      Friction f;
+      f.vertices[0] = i;
+      f.count = 1;
+      f.weights[0] = 1.0;
+      f.tangent = tangentBasis(sd.normal);
+      // The obstacle's surface point under the vertex moves with the obstacle; relative to it
+      // the vertex slides. Velocity is gamma (x - xc), so the obstacle's displacement enters
+      // divided by h gamma (1 for backward Euler).
+      const Eigen::Vector3d moved = poseEnd_[k] * (inverseStart_[k] * sd.closest);
+      f.offset = (moved - sd.closest) / (h * gamma);
+      const double s = sd.distance * sd.distance;
+      f.muLambda = obstacles_[k].friction * kappa_ * mass_[i] *
+                   std::abs(barrier::first(s, sHat_)) * 2.0 * sd.distance;
+      f.obstacle = static_cast<int>(k);
+      f.point = moved;
+      friction_.push_back(f);
+    }
+  }
+  if (settings_.selfCollision && settings_.selfFriction > 0.0) {
+    selfCandidates(x0, nullptr);
+    auto add = [&](const PrimitiveDistance& pd, std::array<Index, 4> v, double weight,
+                   double mollified) {
+      ++checks_;
+      if (!(pd.squared > 0.0 && pd.squared < sHat_)) return;
+      const double d = std::sqrt(pd.squared);
+      Friction f;
+      f.vertices = v;
+      f.count = 4;
+      f.weights = pd.weights;
+      f.tangent = tangentBasis(pd.r / d);
+      f.muLambda = settings_.selfFriction * kappa_ * weight * mollified *
+                   std::abs(barrier::first(pd.squared, sHat_)) * 2.0 * d;
+      friction_.push_back(f);
+    };
+    for (const auto& [p, t] : pointTriangle_) {
+      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+      add(pointTriangleDistance(vertex(x0, p), vertex(x0, tri[0]), vertex(x0, tri[1]), vertex(x0, tri[2])),
+          {p, tri[0], tri[1], tri[2]}, mass_[p], 1.0);
+    }
+    for (const auto& [a, b] : edgeEdge_) {
+      const auto& ea = edges_[static_cast<std::size_t>(a)];
+      const auto& eb = edges_[static_cast<std::size_t>(b)];
+      const double c = edgeCrossSquared(vertex(x0, ea[0]), vertex(x0, ea[1]), vertex(x0, eb[0]), vertex(x0, eb[1]));
+      add(edgeEdgeDistance(vertex(x0, ea[0]), vertex(x0, ea[1]), vertex(x0, eb[0]), vertex(x0, eb[1])),
+          {ea[0], ea[1], eb[0], eb[1]},
+          0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]),
+          mollifier::value(c, edgeMollifierThreshold(a, b)));
+    }
+  }
+  // The relative displacement of a friction contact is measured from xc.
+  frictionOrigin_ = xc;
+}
+
+Status ContactModel::feasibleStart(const VectorX& x0, VectorX& x) {
+  const double dHat = settings_.distance;
+  const Index n = mesh_->numVertices();
+  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+    if (poseStart_[k].matrix() == poseEnd_[k].matrix()) continue;
+    const Eigen::Isometry3d carry = poseEnd_[k] * inverseStart_[k];
+    const Eigen::Vector3d shift = poseEnd_[k].translation() - poseStart_[k].translation();
+    const double angle = Eigen::AngleAxisd(poseStart_[k].linear().transpose() * poseEnd_[k].linear()).angle();
+    for (Index i = 0; i < n; ++i) {
+      if (!isFree(i)) continue;
+      const Eigen::Vector3d p = vertex(x, i);
+      // In the obstacle's frame the vertex moves along inverse(pose(t)) p: its speed is at most
+      // |shift| + angle |p - centre| (centre anywhere on the way).
+      auto distanceAt = [&](double t) {
+        ++checks_;
+        const Eigen::Isometry3d pose = interpolatePose(poseStart_[k], poseEnd_[k], t);
+        return signedDistance(obstacles_[k].shape, pose.inverse() * p).distance;
+      };
+      const double d0 = distanceAt(0.0);
+      const double lp = shift.norm() + angle * ((p - poseStart_[k].translation()).norm() + shift.norm());
+      if (ccd::comesWithin(distanceAt, d0, lp, dHat)) x.segment<3>(3 * i) = carry * p;
+    }
+  }
+  for (Index i = 0; i < n; ++i) {
+    if (!isFree(i)) continue;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+      const double d = obstacleDistance(k, vertex(x, i), true, false).distance;
+      if (!(d > 0.0)) {
+        return Error{"vertex " + std::to_string(i) + " would be inside obstacle '" +
+                     obstacles_[k].name + "' (" + std::to_string(d) +
+                     " m): pinched between obstacles, or pushed in by a pin"};
+      }
+    }
+  }
+  if (settings_.selfCollision) {
+    const VectorX motion = x - x0;
+    if (prepareSegment(x0, motion) < 1.0) {
+      return Error{"the pins' (or obstacles') motion in this step would pass the cloth through itself"};
+    }
+  }
+  return Status::success();
+}
+
+double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx) {
+  double t = 1.0;
+  const Index n = mesh_->numVertices();
+  for (Index i = 0; i < n; ++i) {
+    if (!isFree(i)) continue;
+    const Eigen::Vector3d p = vertex(x, i), step = vertex(dx, i);
+    const double length = step.norm();
+    if (length == 0.0) continue;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+      const double d0 = obstacleDistance(k, p, true, false).distance;
+      // A vertex cannot lose more distance than it moves.
+      if (length * t < (1.0 - ccd::kRescaling) * d0) continue;
+      auto at = [&](double s) { return obstacleDistance(k, p + s * step, true, false).distance; };
+      t = std::min(t, ccd::additive(at, d0, length, t));
+    }
+  }
+  if (settings_.selfCollision) {
+    const bool moving = dx.size() == x.size() && !dx.isZero();
+    selfCandidates(x, moving ? &dx : nullptr);
+    if (moving) {
+      Eigen::Matrix<double, 3, 4> X, D;
+      auto load = [&](std::array<Index, 4> v) {
+        for (int c = 0; c < 4; ++c) {
+          X.col(c) = vertex(x, v[static_cast<std::size_t>(c)]);
+          D.col(c) = vertex(dx, v[static_cast<std::size_t>(c)]);
+        }
+      };
+      for (const auto& [p, tIndex] : pointTriangle_) {
+        const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(tIndex)];
+        load({p, tri[0], tri[1], tri[2]});
+        ++checks_;
+        t = std::min(t, ccd::pointTriangle(X, D, t));
+      }
+      for (const auto& [a, b] : edgeEdge_) {
+        const auto& ea = edges_[static_cast<std::size_t>(a)];
+        const auto& eb = edges_[static_cast<std::size_t>(b)];
+        load({ea[0], ea[1], eb[0], eb[1]});
+        ++checks_;
+        t = std::min(t, ccd::edgeEdge(X, D, t));
+      }
+    }
+  }
+  return t;
+}
+
+void ContactModel::addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
+                            std::vector<Eigen::Triplet<double>>* outside) const {
+  double* values = hessian->values();
+  for (int l = 0; l < 3; ++l) {
+    const int offset = hessian->blockColumnOffset(a, b, l);
+    for (int k = 0; k < 3; ++k) {
+      if (offset >= 0) {
+        values[offset + k] += block(k, l);
+      } else if (outside != nullptr) {
+        outside->emplace_back(3 * a + k, 3 * b + l, block(k, l));
+      }
+    }
+  }
+}
+
+double ContactModel::evaluate(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
+                              std::vector<Eigen::Triplet<double>>* outside, double scale) {
+  return evaluateAll(x, gradient, hessian, outside, scale, nullptr, nullptr);
+}
+
+double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
+                                 std::vector<Eigen::Triplet<double>>* outside, double scale,
+                                 std::vector<ObstacleWrench>* wrench, ContactStats* stats) {
+  const double dHat = settings_.distance;
+  const bool wantHessian = hessian != nullptr;
+  double energy = 0.0;
+  auto note = [&](double d) {
+    if (stats == nullptr) return;
+    stats->minDistance = std::min(stats->minDistance, d);
+    if (d < dHat) ++stats->contacts;
+  };
+  // Vertex-obstacle barriers: kappa m b(d^2), d the signed distance at the end of the substep.
+  for (Index i = 0; i < mesh_->numVertices(); ++i) {
+    if (!isFree(i)) continue;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+      const SignedDistance sd = obstacleDistance(k, vertex(x, i), true, wantHessian);
+      note(sd.distance);
+      if (!(sd.distance > 0.0)) return kInf;
+      if (sd.distance >= dHat) continue;
+      const double d = sd.distance, s = d * d, w = kappa_ * mass_[i];
+      energy += w * barrier::value(s, sHat_);
+      const double b1 = barrier::first(s, sHat_);
+      const Eigen::Vector3d g = w * b1 * 2.0 * d * sd.normal;  // dE/dx_i
+      if (gradient != nullptr) gradient->segment<3>(3 * i) += scale * g;
+      if (wrench != nullptr) {
+        (*wrench)[k].force += g;  // the cloth pushes the obstacle with +dE/dx
+        (*wrench)[k].torque += sd.closest.cross(g);
+      }
+      if (wantHessian) {
+        // d2s/dx2 = 2 n n^T + 2 d Hd.
+        const Eigen::Matrix3d nn = sd.normal * sd.normal.transpose();
+        const Eigen::Matrix3d H =
+            w * (barrier::second(s, sHat_) * 4.0 * s * nn + b1 * (2.0 * nn + 2.0 * d * sd.hessian));
+        addBlock(i, i, scale * projectPsd<3>(H), hessian, outside);
+      }
+    }
+  }
+  // Self-contact barriers over the candidate pairs.
+  if (settings_.selfCollision) {
+    Vector12 gs, gc;
+    Matrix12 Hs, Hc;
+    auto scatter = [&](const std::array<Index, 4>& v, const Vector12& g, const Matrix12* H) {
+      if (gradient != nullptr) {
+        for (int a = 0; a < 4; ++a) gradient->segment<3>(3 * v[a]) += scale * g.segment<3>(3 * a);
+      }
+      if (H != nullptr) {
+        const Matrix12 P = scale * projectPsd<12>(*H);
+        for (int a = 0; a < 4; ++a) {
+          for (int b = 0; b < 4; ++b) addBlock(v[a], v[b], P.block<3, 3>(3 * a, 3 * b), hessian, outside);
+        }
+      }
+    };
+    const bool wantGradient = gradient != nullptr || wantHessian;
+    for (const auto& [p, t] : pointTriangle_) {
+      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+      ++checks_;
+      const PrimitiveDistance pd =
+          pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
+                                wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
+      note(std::sqrt(pd.squared));
+      if (!(pd.squared > 0.0)) return kInf;
+      if (pd.squared >= sHat_) continue;
+      const double w = kappa_ * mass_[p];
+      energy += w * barrier::value(pd.squared, sHat_);
+      if (!wantGradient) continue;
+      const double b1 = barrier::first(pd.squared, sHat_);
+      Matrix12 H;
+      if (wantHessian) H = w * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs);
+      scatter({p, tri[0], tri[1], tri[2]}, w * b1 * gs, wantHessian ? &H : nullptr);
+    }
+    for (const auto& [a, b] : edgeEdge_) {
+      const auto& ea = edges_[static_cast<std::size_t>(a)];
+      const auto& eb = edges_[static_cast<std::size_t>(b)];
+      ++checks_;
+      const PrimitiveDistance pd =
+          edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
+                           wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
+      note(std::sqrt(pd.squared));
+      if (!(pd.squared > 0.0)) return kInf;
+      if (pd.squared >= sHat_) continue;
+      // Mollified: e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
+      const double epsX = edgeMollifierThreshold(a, b);
+      const double c = edgeCrossSquared(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
+                                        wantGradient ? &gc : nullptr, wantHessian ? &Hc : nullptr);
+      const double w = kappa_ * 0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]);
+      const double e = mollifier::value(c, epsX), bv = barrier::value(pd.squared, sHat_);
+      energy += w * e * bv;
+      if (!wantGradient) continue;
+      const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
+      const Vector12 gb = b1 * gs, ge = e1 * gc;
+      Matrix12 H;
+      if (wantHessian) {
+        H = w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
+                 gb * ge.transpose() + ge * gb.transpose() +
+                 bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc));
+      }
+      scatter({ea[0], ea[1], eb[0], eb[1]}, w * (e * gb + bv * ge), wantHessian ? &H : nullptr);
+    }
+  }
+  // Lagged friction: mu lambda f0(|u|), u = T^T (sum_k w_k (x_k - xc_k) - offset).
+  for (const Friction& f : friction_) {
+    Eigen::Vector3d r = -f.offset;
+    for (int a = 0; a < f.count; ++a) {
+      const Index v = f.vertices[static_cast<std::size_t>(a)];
+      r += f.weights[a] * (vertex(x, v) - vertex(frictionOrigin_, v));
+    }
+    const Eigen::Vector2d u = f.tangent.transpose() * r;
+    const double y = u.norm();
+    energy += f.muLambda * friction::f0(y, frictionEps_);
+    const Eigen::Vector3d g = f.muLambda * friction::f1OverY(y, frictionEps_) * (f.tangent * u);
+    if (gradient != nullptr) {
+      for (int a = 0; a < f.count; ++a) {
+        gradient->segment<3>(3 * f.vertices[static_cast<std::size_t>(a)]) += scale * f.weights[a] * g;
+      }
+    }
+    if (wrench != nullptr && f.obstacle >= 0) {
+      (*wrench)[static_cast<std::size_t>(f.obstacle)].force += g;
+      (*wrench)[static_cast<std::size_t>(f.obstacle)].torque += f.point.cross(g);
+    }
+    if (wantHessian) {
+      // Positive semi-definite as it is (Li et al. 2020, section 5.2).
+      const Eigen::Matrix2d H2 = f.muLambda * (friction::f1OverY(y, frictionEps_) * Eigen::Matrix2d::Identity() +
+                                               friction::hessianRadialCoefficient(y, frictionEps_) * u * u.transpose());
+      const Eigen::Matrix3d H3 = f.tangent * H2 * f.tangent.transpose();
+      for (int a = 0; a < f.count; ++a) {
+        for (int b = 0; b < f.count; ++b) {
+          addBlock(f.vertices[static_cast<std::size_t>(a)], f.vertices[static_cast<std::size_t>(b)],
+                   scale * f.weights[a] * f.weights[b] * H3, hessian, outside);
+        }
+      }
+    }
+  }
+  return energy;
+}
+
+void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {
+  std::vector<ObstacleWrench> wrench(obstacles_.size());
+  VectorX gradient = VectorX::Zero(x.size());
+  const std::uint64_t before = checks_;
+  ContactStats here;
+  evaluateAll(x, &gradient, nullptr, nullptr, 1.0, &wrench, &here);
+  wrenches_ = wrench;
+  stats.contacts = here.contacts;
+  stats.minDistance = here.minDistance;
+  stats.work += -gradient.dot(x - x0);
+  stats.checks += checks_ - before;
+  pinned_ = nullptr;
+}
+
+// --- Explicit steppers and XPBD ----------------------------------------------------------------
+
+void ContactModel::beginProjection(double f0, double f1) {
+  setSubstepPoses(f0, f1);
+  std::fill(projectedBy_.begin(), projectedBy_.end(), -1);
+}
+
+int ContactModel::projectOntoObstacles(VectorX& x, const std::vector<char>& pinned,
+                                       VectorX& normalPush, VectorX& correction) {
+  pinned_ = &pinned;
+  const double dHat = settings_.distance;
+  int moved = 0;
+  for (Index i = 0; i < mesh_->numVertices(); ++i) {
+    if (!isFree(i)) continue;
+    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
+      const SignedDistance sd = obstacleDistance(k, vertex(x, i), true, false);
+      if (sd.distance >= dHat) continue;
+      const double push = dHat - sd.distance;
+      x.segment<3>(3 * i) += push * sd.normal;
+      correction.segment<3>(3 * i) += push * sd.normal;
+      normalPush[i] += push;
+      projectedBy_[static_cast<std::size_t>(i)] = static_cast<int>(k);
+      ++moved;
+    }
+  }
+  return moved;
+}
+
+void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart,
+                                           const VectorX& normalPush, VectorX& correction) {
+  for (Index i = 0; i < mesh_->numVertices(); ++i) {
+    const int k = projectedBy_[static_cast<std::size_t>(i)];
+    if (k < 0 || !(obstacles_[static_cast<std::size_t>(k)].friction > 0.0)) continue;
+    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true, false);
+    // Displacement relative to the obstacle's surface point under the vertex.
+    const Eigen::Vector3d surfaceMotion =
+        sd.closest - poseStart_[static_cast<std::size_t>(k)] * (inverseEnd_[static_cast<std::size_t>(k)] * sd.closest);
+    const Eigen::Vector3d relative = vertex(x, i) - vertex(xStart, i) - surfaceMotion;
+    const Eigen::Vector3d tangential = relative - relative.dot(sd.normal) * sd.normal;
+    const double slide = tangential.norm();
+    if (slide == 0.0) continue;
+    // Coulomb: the friction impulse is at most mu times the normal one (Bridson et al. 2002,
+    // section 7.2): the tangential displacement shrinks by at most mu x normalPush, and stops.
+    const double removed = std::min(slide, obstacles_[static_cast<std::size_t>(k)].friction * normalPush[i]);
+    const Eigen::Vector3d change = -removed / slide * tangential;
+    x.segment<3>(3 * i) += change;
+    correction.segment<3>(3 * i) += change;
+  }
+}
+
+void ContactModel::finishProjection(const VectorX& x, const VectorX& xStart, const VectorX& correction,
+                                    double h, ContactStats& stats) {
+  std::vector<ObstacleWrench> wrench(obstacles_.size());
+  int contacts = 0;
+  double work = 0.0;
+  for (Index i = 0; i < mesh_->numVertices(); ++i) {
+    const int k = projectedBy_[static_cast<std::size_t>(i)];
+    if (k < 0) continue;
+    ++contacts;
+    const Eigen::Vector3d force = mass_[i] * vertex(correction, i) / (h * h);  // on the cloth
+    work += force.dot(vertex(x, i) - vertex(xStart, i));
+    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true, false);
+    wrench[static_cast<std::size_t>(k)].force -= force;
+    wrench[static_cast<std::size_t>(k)].torque -= sd.closest.cross(force);
+    stats.minDistance = std::min(stats.minDistance, sd.distance);
+  }
+  wrenches_ = wrench;
+  stats.contacts = contacts;
+  stats.work += work;
+}
+
+}  // namespace fem_cloth
