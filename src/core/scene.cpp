@@ -1,6 +1,7 @@
 #include "fem_cloth/core/scene.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -37,10 +38,23 @@ Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
   return Status::success();
 }
 
+Status checkTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& key) {
+  for (std::size_t k = 0; k < trajectory.size(); ++k) {
+    const std::string at = key + ".trajectory[" + std::to_string(k) + "]";
+    if (Status s = nonNegativeFinite(trajectory[k].time, at + ".time", "s"); !s) return s;
+    if (Status s = finiteVector(trajectory[k].offset, at + ".offset"); !s) return s;
+    if (k > 0 && !(trajectory[k].time > trajectory[k - 1].time)) {
+      return Error{at + ".time must be later than the point before (" +
+                   str(trajectory[k - 1].time) + " s), got " + str(trajectory[k].time)};
+    }
+  }
+  return Status::success();
+}
+
 #define FEM_CLOTH_CHECK(expr)     \
   do {                            \
     if (Status check_ = (expr); !check_) { \
-      return check_;              \
+      return Error{check_.error()}; \
     }                             \
   } while (false)
 
@@ -109,6 +123,10 @@ Status validateScene(const Scene& s) {
     FEM_CLOTH_CHECK(finiteVector(p.offset, key + ".offset"));
     FEM_CLOTH_CHECK(finiteVector(p.velocity, key + ".velocity"));
     for (const auto& t : p.targets) FEM_CLOTH_CHECK(finiteVector(t, key + ".targets"));
+    FEM_CLOTH_CHECK(checkTrajectory(p.trajectory, key));
+    if (!p.trajectory.empty() && !p.velocity.isZero()) {
+      return Error{key + ": give velocity or trajectory, not both"};
+    }
     if (!(p.releaseAt > 0.0)) return Error{key + ".release_at must be positive (s)"};
   }
   for (std::size_t i = 0; i < s.forces.size(); ++i) {
@@ -124,7 +142,99 @@ Status validateScene(const Scene& s) {
   }
   FEM_CLOTH_CHECK(finiteVector(s.initialVelocity, "initial.velocity"));
   FEM_CLOTH_CHECK(positiveFinite(s.duration, "duration", "s"));
+  // Contact.
+  FEM_CLOTH_CHECK(positiveFinite(s.contact.distance, "contact.distance", "m"));
+  FEM_CLOTH_CHECK(nonNegativeFinite(s.contact.stiffness, "contact.stiffness", "m/s^2"));
+  FEM_CLOTH_CHECK(positiveFinite(s.contact.frictionVelocity, "contact.friction_velocity", "m/s"));
+  FEM_CLOTH_CHECK(nonNegativeFinite(s.contact.selfFriction, "contact.self_friction", "dimensionless"));
+  if (sceneHasContact(s)) {
+    const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
+    if (dim != 3) {
+      return Error{s.obstacles.empty() ? "contact.self_collision needs a 3D cloth (mesh.dim 3)"
+                                       : "obstacles need a 3D cloth (mesh.dim 3)"};
+    }
+  }
+  if (s.contact.selfCollision && s.integrator != "backward_euler" && s.integrator != "bdf2") {
+    return Error{"contact.self_collision needs an implicit integrator (backward_euler or bdf2), "
+                 "not " + s.integrator};
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < s.obstacles.size(); ++i) {
+    const std::string key = "obstacles[" + std::to_string(i) + "]";
+    Expected<Obstacle> o = makeObstacle(s.obstacles[i], key);
+    if (!o) return Error{o.error()};
+    if (!names.insert(o->name).second) {
+      return Error{key + ".name: another obstacle is already called '" + o->name + "'"};
+    }
+  }
   return Status::success();
+}
+
+Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) {
+  Obstacle o;
+  o.name = e.name;
+  const auto& names = shapeTypeNames();
+  const auto type = std::find(names.begin(), names.end(), e.type);
+  if (type == names.end()) {
+    return Error{key + ".type must be plane, sphere, box or capsule, got '" + e.type + "'"};
+  }
+  o.shape.type = static_cast<ShapeType>(type - names.begin());
+  // Names appear in topic names: letters, digits and underscores, not starting with a digit.
+  const bool nameOk = !o.name.empty() && !std::isdigit(static_cast<unsigned char>(o.name[0])) &&
+                      std::all_of(o.name.begin(), o.name.end(), [](char c) {
+                        return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+                      });
+  if (!nameOk) {
+    return Error{key + ".name must be letters, digits and underscores (not starting with a digit), "
+                 "got '" + o.name + "'"};
+  }
+  FEM_CLOTH_CHECK(finiteVector(e.center, key + ".center"));
+  FEM_CLOTH_CHECK(finiteVector(e.orientation, key + ".orientation"));
+  o.geometry.linear() = rotationFromRpy(e.orientation);
+  o.geometry.translation() = e.center;
+  switch (o.shape.type) {
+    case ShapeType::Plane: {
+      FEM_CLOTH_CHECK(finiteVector(e.point, key + ".point"));
+      FEM_CLOTH_CHECK(finiteVector(e.normal, key + ".normal"));
+      if (!(e.normal.norm() > 0.0)) return Error{key + ".normal must not be zero"};
+      // The shape frame's z axis along the normal.
+      o.geometry.linear() =
+          Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), e.normal.normalized()).toRotationMatrix();
+      o.geometry.translation() = e.point;
+      break;
+    }
+    case ShapeType::Sphere:
+      FEM_CLOTH_CHECK(positiveFinite(e.radius, key + ".radius", "m"));
+      o.shape.radius = e.radius;
+      break;
+    case ShapeType::Box:
+      for (int k = 0; k < 3; ++k) {
+        FEM_CLOTH_CHECK(positiveFinite(e.size[k], key + ".size[" + std::to_string(k) + "]", "m"));
+      }
+      o.shape.halfExtents = 0.5 * e.size;
+      break;
+    case ShapeType::Capsule:
+      FEM_CLOTH_CHECK(positiveFinite(e.radius, key + ".radius", "m"));
+      FEM_CLOTH_CHECK(nonNegativeFinite(e.length, key + ".length", "m"));
+      o.shape.radius = e.radius;
+      o.shape.halfLength = 0.5 * e.length;
+      break;
+  }
+  FEM_CLOTH_CHECK(nonNegativeFinite(e.friction, key + ".friction", "dimensionless"));
+  o.friction = e.friction;
+  o.frame = e.frame;
+  FEM_CLOTH_CHECK(finiteVector(e.velocity, key + ".velocity"));
+  o.velocity = e.velocity;
+  FEM_CLOTH_CHECK(checkTrajectory(e.trajectory, key));
+  o.trajectory = e.trajectory;
+  if (!o.velocity.isZero() && !o.trajectory.empty()) {
+    return Error{key + ": give velocity or trajectory, not both"};
+  }
+  if (!o.frame.empty() && o.scripted()) {
+    return Error{key + ": an obstacle that follows frame '" + o.frame +
+                 "' cannot have a velocity or trajectory as well"};
+  }
+  return o;
 }
 
 Expected<Lame> membraneLame(const Scene& s) {
@@ -173,8 +283,15 @@ Status SceneScript::applyDue(Simulator& sim) {
   const double now = sim.time() + 1e-9 * sim.settings().dt;
   while (next_ < events_.size() && events_[next_].time <= now) {
     const Event& e = events_[next_++];
-    Status s = e.kind == Event::Kind::ReleasePin ? sim.release(e.vertex)
-                                                 : sim.applyForce(e.vertex, e.force, e.duration);
+    Status s;
+    switch (e.kind) {
+      case Event::Kind::ReleasePin: s = sim.release(e.vertex); break;
+      case Event::Kind::ApplyForce: s = sim.applyForce(e.vertex, e.force, e.duration); break;
+      case Event::Kind::PinVelocity:
+        // A pin released earlier stays released.
+        if (sim.isPinned(e.vertex)) s = sim.pin(e.vertex, sim.pinTarget(e.vertex), e.velocity);
+        break;
+    }
     if (!s) return s;
   }
   return Status::success();
@@ -330,9 +447,32 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         target.head(d) = x.segment(d * vert, d);
         target += p.offset;
       }
+      // A trajectory is followed as a velocity that changes at its waypoints: exact when the
+      // waypoint times fall on step boundaries.
+      Eigen::Vector3d velocity = p.velocity;
+      if (!p.trajectory.empty()) {
+        const std::vector<TrajectoryPoint>& w = p.trajectory;
+        target += w.front().offset;
+        for (std::size_t j = 0; j < w.size(); ++j) {
+          // From waypoint j on, towards waypoint j + 1 (after the last one: at rest).
+          const Eigen::Vector3d slope =
+              j + 1 == w.size() ? Eigen::Vector3d::Zero()
+                                : Eigen::Vector3d((w[j + 1].offset - w[j].offset) / (w[j + 1].time - w[j].time));
+          if (w[j].time <= 0.0) {
+            velocity = slope;
+            continue;
+          }
+          SceneScript::Event e;
+          e.time = w[j].time;
+          e.kind = SceneScript::Event::Kind::PinVelocity;
+          e.vertex = vert;
+          e.velocity = slope;
+          sim.script.add(e);
+        }
+      }
       x.segment(d * vert, d) = target.head(d);
-      v.segment(d * vert, d) = p.velocity.head(d);
-      if (Status st = simulator.pin(vert, target, p.velocity); !st) return Error{key + ": " + st.error()};
+      v.segment(d * vert, d) = velocity.head(d);
+      if (Status st = simulator.pin(vert, target, velocity); !st) return Error{key + ": " + st.error()};
       if (std::isfinite(p.releaseAt)) {
         SceneScript::Event e;
         e.time = p.releaseAt;
@@ -364,6 +504,50 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
     }
   }
   if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
+  if (sceneHasContact(scene)) {
+    std::vector<Obstacle> obstacles;
+    for (std::size_t i = 0; i < scene.obstacles.size(); ++i) {
+      obstacles.push_back(*makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]"));
+    }
+    auto contact = std::make_unique<ContactModel>(*sim.model, std::move(obstacles), scene.contact,
+                                                  scene.gravity.norm());
+    // Every free vertex starts outside the obstacles (those that follow a tf frame are placed
+    // only when the node runs).
+    std::vector<char> pinnedDofs(x.size(), 0);
+    for (Index vert : simulator.pinnedVertices()) {
+      for (int k = 0; k < d; ++k) pinnedDofs[d * vert + k] = 1;
+    }
+    for (std::size_t k = 0; k < scene.obstacles.size(); ++k) {
+      if (!contact->obstacle(k).frame.empty()) continue;
+      for (Index vert = 0; vert < n; ++vert) {
+        if (pinnedDofs[d * vert]) continue;
+        const double dist = signedDistance(contact->obstacle(k).shape,
+                                           contact->shapePose(k).inverse() * Eigen::Vector3d(x.segment<3>(3 * vert)))
+                                .distance;
+        if (!(dist > 0.0)) {
+          return Error{"obstacles[" + std::to_string(k) + "] ('" + contact->obstacle(k).name +
+                       "'): vertex " + std::to_string(vert) + " starts inside it or on its surface (distance " +
+                       str(dist) + " m); move the obstacle or the cloth"};
+        }
+      }
+    }
+    if (scene.contact.selfCollision) {
+      // Parts of the cloth that share no vertex must be farther apart than dHat at rest, or the
+      // barrier would push them apart from the start.
+      const double rest = contact->minimumSelfDistance(mesh->restPositions);
+      if (rest < scene.contact.distance) {
+        return Error{"contact.distance (" + str(scene.contact.distance) +
+                     " m) must be below the smallest rest distance between parts of the cloth that "
+                     "share no vertex (" + str(rest) + " m) for self_collision; use a smaller distance "
+                     "or a coarser mesh"};
+      }
+      const double now = contact->minimumSelfDistance(x);
+      if (!(now > 0.0)) {
+        return Error{"initial: the cloth starts intersecting itself (with self_collision on)"};
+      }
+    }
+    simulator.setContact(std::move(contact));
+  }
   const Model::Energies e0 = sim.model->energies(x);
   if (!std::isfinite(e0.total())) {
     return Error{"initial: the initial positions put an element outside the material's domain "

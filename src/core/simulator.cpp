@@ -52,7 +52,7 @@ void Simulator::snapshotInitial() {
   initial_.pinVelocity = pinVelocity_;
   initial_.forces = forces_;
   initialPositions_ = state_.x;
-  externalWork_ = pinWork_ = dissipated_ = 0.0;
+  externalWork_ = pinWork_ = contactWork_ = dissipated_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
@@ -93,7 +93,8 @@ void Simulator::reset() {
   forces_ = initial_.forces;
   rebuildExternalForce();
   integrator_->invalidate();
-  externalWork_ = pinWork_ = dissipated_ = 0.0;
+  if (contact_) contact_->reset();
+  externalWork_ = pinWork_ = contactWork_ = dissipated_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   lastReport_ = StepReport();
@@ -238,6 +239,10 @@ StepReport Simulator::step(double dt) {
   input.pinned = &pinned_;
   input.pinTarget = &stepPinTarget_;
   input.damping = settings_.damping;
+  if (contact_) {
+    contact_->beginStep(state_.time, dt);
+    input.contact = contact_.get();
+  }
 
   backup_ = state_;
   const double tolerance = integrator_->energyGrowthTolerance();
@@ -254,7 +259,7 @@ StepReport Simulator::step(double dt) {
     StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
     if (r.ok && guard && state_.x.allFinite() && state_.v.allFinite()) {
       // Work put in during the step by the (constant) forces and the pins, as an upper bound.
-      double inputWork = 0.0;
+      double inputWork = std::abs(r.contactWork);
       for (Index i = 0; i < model_->numDofs(); ++i) {
         const double dx = state_.x[i] - backup_.x[i];
         inputWork += std::abs(externalForce_[i] * dx);
@@ -276,6 +281,10 @@ StepReport Simulator::step(double dt) {
     total.xpbdIterations += r.xpbdIterations;
     total.residual = r.residual;
     total.dtUsed = r.dtUsed;
+    total.contactChecks += r.contactChecks;
+    total.contacts = r.contacts;
+    total.contactWork = r.contactWork;
+    total.minContactDistance = r.minContactDistance;
     if (r.ok && state_.x.allFinite() && state_.v.allFinite()) {
       total.dissipated = r.dissipated;
       total.ok = true;
@@ -317,6 +326,8 @@ StepReport Simulator::step(double dt) {
     if (pinned_[i]) pinWork_ += 0.5 * (pinForce_[i] + previousPinForce_[i]) * dx;
   }
   dissipated_ += total.dissipated;
+  contactWork_ += total.contactWork;
+  if (contact_) contact_->commitStep();
   previousPinForce_ = pinForce_;
   state_.time += dt;
   ++state_.step;
@@ -334,9 +345,11 @@ EnergyReport Simulator::energies() {
   e.gravity = -gravityForce_.dot(state_.x - initialPositions_);
   e.externalWork = externalWork_;
   e.pinWork = pinWork_;
+  e.contactWork = contactWork_;
   e.dissipated = dissipated_;
   e.total = e.kinetic + e.strain + e.bending + e.gravity;
-  e.balanceError = e.total - e.externalWork - e.pinWork + e.dissipated - initialTotal_;
+  e.balanceError =
+      e.total - e.externalWork - e.pinWork - e.contactWork + e.dissipated - initialTotal_;
   return e;
 }
 

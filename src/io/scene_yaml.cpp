@@ -255,6 +255,100 @@ Status readIntegrator(const YAML::Node& node, Scene& s) {
   return Status::success();
 }
 
+// A scripted motion: a list of {time (s), offset (m)}.
+Status readTrajectory(const YAML::Node& points, const std::string& key,
+                      std::vector<TrajectoryPoint>& out) {
+  if (!points.IsSequence()) return Error{key + ".trajectory must be a list of {time, offset}"};
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    const std::string at = key + ".trajectory[" + std::to_string(k) + "]";
+    MapReader p(points[k], at, {"time", "offset"});
+    FEM_CLOTH_TRY(p.check());
+    if (!p.has("time") || !p.has("offset")) return Error{at + " needs time and offset"};
+    TrajectoryPoint point;
+    FEM_CLOTH_TRY(p.number("time", point.time));
+    FEM_CLOTH_TRY(p.vector("offset", point.offset));
+    out.push_back(point);
+  }
+  return Status::success();
+}
+
+// Obstacles: the keys allowed depend on the type, so a key of another shape is an error naming
+// the keys this one takes.
+Status readObstacles(const YAML::Node& list, Scene& s) {
+  if (!list.IsSequence()) return Error{"obstacles must be a list of obstacles"};
+  const std::vector<std::string> common = {"name", "type", "friction", "frame", "velocity", "trajectory"};
+  const std::map<std::string, std::vector<std::string>> shapeKeys = {
+      {"plane", {"point", "normal"}},
+      {"sphere", {"center", "radius"}},
+      {"box", {"center", "size", "orientation"}},
+      {"capsule", {"center", "radius", "length", "orientation"}}};
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string key = "obstacles[" + std::to_string(i) + "]";
+    const YAML::Node node = list[i];
+    if (!node.IsMap()) return Error{key + " must be a map of keys, got " + describe(node)};
+    const YAML::Node typeNode = node["type"];
+    if (!typeNode.IsDefined() || !typeNode.IsScalar()) {
+      return Error{key + ".type is required: plane, sphere, box or capsule"};
+    }
+    SceneObstacle o;
+    o.type = typeNode.Scalar();
+    const auto shape = shapeKeys.find(o.type);
+    if (shape == shapeKeys.end()) {
+      return Error{key + ".type must be plane, sphere, box or capsule, got '" + o.type + "'"};
+    }
+    std::vector<std::string> known = common;
+    known.insert(known.end(), shape->second.begin(), shape->second.end());
+    MapReader r(node, key, known);
+    FEM_CLOTH_TRY(r.check());
+    o.name = "obstacle_" + std::to_string(i);
+    FEM_CLOTH_TRY(r.text("name", o.name));
+    FEM_CLOTH_TRY(r.vector("point", o.point));
+    FEM_CLOTH_TRY(r.vector("normal", o.normal));
+    FEM_CLOTH_TRY(r.vector("center", o.center));
+    FEM_CLOTH_TRY(r.vector("orientation", o.orientation));
+    FEM_CLOTH_TRY(r.number("friction", o.friction));
+    FEM_CLOTH_TRY(r.text("frame", o.frame));
+    FEM_CLOTH_TRY(r.vector("velocity", o.velocity));
+    if (o.type == "box") {
+      if (!r.has("size")) return Error{key + ".size is required for a box: [x, y, z] (m)"};
+      FEM_CLOTH_TRY(r.vector("size", o.size));
+    }
+    if (o.type == "sphere" || o.type == "capsule") {
+      if (!r.has("radius")) return Error{key + ".radius is required for a " + o.type + " (m)"};
+      FEM_CLOTH_TRY(r.number("radius", o.radius));
+    }
+    if (o.type == "capsule") {
+      if (!r.has("length")) return Error{key + ".length is required for a capsule (m)"};
+      FEM_CLOTH_TRY(r.number("length", o.length));
+    }
+    if (r.has("trajectory")) FEM_CLOTH_TRY(readTrajectory(r.child("trajectory"), key, o.trajectory));
+    s.obstacles.push_back(o);
+  }
+  return Status::success();
+}
+
+Status readContact(const YAML::Node& node, Scene& s) {
+  MapReader r(node, "contact",
+              {"distance", "stiffness", "self_collision", "self_friction", "friction_velocity"});
+  FEM_CLOTH_TRY(r.check());
+  FEM_CLOTH_TRY(r.number("distance", s.contact.distance));
+  if (r.has("stiffness")) {
+    const YAML::Node k = r.child("stiffness");
+    if (k.IsScalar() && k.Scalar() == "auto") {
+      s.contact.stiffness = 0.0;
+    } else {
+      FEM_CLOTH_TRY(MapReader::toNumber(k, "contact.stiffness", s.contact.stiffness));
+      if (!(s.contact.stiffness > 0.0)) {
+        return Error{"contact.stiffness must be auto or positive (m/s^2), got " + describe(k)};
+      }
+    }
+  }
+  FEM_CLOTH_TRY(r.boolean("self_collision", s.contact.selfCollision));
+  FEM_CLOTH_TRY(r.number("self_friction", s.contact.selfFriction));
+  FEM_CLOTH_TRY(r.number("friction_velocity", s.contact.frictionVelocity));
+  return Status::success();
+}
+
 }  // namespace
 
 Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath) {
@@ -262,7 +356,7 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
   s.sourcePath = sourcePath;
   MapReader root(doc, "",
                  {"name", "mesh", "material", "bending", "damping", "gravity", "integrator",
-                  "pins", "forces", "initial", "duration"});
+                  "pins", "forces", "initial", "duration", "obstacles", "contact"});
   if (!doc.IsMap()) return Error{"scene must be a map of keys, got " + describe(doc)};
   FEM_CLOTH_TRY(root.check());
   FEM_CLOTH_TRY(root.text("name", s.name));
@@ -301,13 +395,14 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
       const std::string key = "pins[" + std::to_string(i) + "]";
       MapReader r(pins[i], key,
                   {"vertices", "grid_vertices", "grid_edge", "offset", "targets", "velocity",
-                   "release_at"});
+                   "trajectory", "release_at"});
       FEM_CLOTH_TRY(r.check());
       ScenePin p;
       FEM_CLOTH_TRY(readSelection(r, p.select));
       FEM_CLOTH_TRY(r.vector("offset", p.offset));
       FEM_CLOTH_TRY(r.vector("velocity", p.velocity));
       FEM_CLOTH_TRY(r.number("release_at", p.releaseAt));
+      if (r.has("trajectory")) FEM_CLOTH_TRY(readTrajectory(r.child("trajectory"), key, p.trajectory));
       if (r.has("targets")) {
         const YAML::Node ts = r.child("targets");
         if (!ts.IsSequence()) return Error{key + ".targets must be a list of positions"};
@@ -336,6 +431,8 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
       s.forces.push_back(f);
     }
   }
+  if (root.has("obstacles")) FEM_CLOTH_TRY(readObstacles(root.child("obstacles"), s));
+  FEM_CLOTH_TRY(readContact(root.child("contact"), s));
   MapReader init(root.child("initial"), "initial", {"positions", "velocity"});
   FEM_CLOTH_TRY(init.check());
   FEM_CLOTH_TRY(init.vector("velocity", s.initialVelocity));

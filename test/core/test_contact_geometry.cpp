@@ -155,27 +155,22 @@ TEST(ContactShapes, InsideDistanceIsMinusTheDepth) {
   EXPECT_EQ(signedDistance(Shape(), Eigen::Vector3d(3, 4, -0.25)).distance, -0.25);
 }
 
-TEST(ContactShapes, GradientAndHessianMatchFiniteDifferences) {
+TEST(ContactShapes, NormalIsTheGradient) {
+  // Central differences of the distance; exact distances have a unit gradient.
   for (const Shape& shape : testShapes()) {
-    for (int trial = 0; trial < 20; ++trial) {
-      Eigen::Vector3d p = randomPoint(0.8);
-      if (signedDistance(shape, p).distance <= 0.02) continue;
-      using V = Eigen::Matrix<double, 3, 1>;
-      checkDerivatives<3>([&](const V& q) { return signedDistance(shape, q).distance; },
-                          [&](const V& q) { return V(signedDistance(shape, q).normal); },
-                          [&](const V& q) { return Eigen::Matrix3d(signedDistance(shape, q, true).hessian); },
-                          p, 1e-4, shapeTypeName(shape.type));
-    }
-  }
-}
-
-TEST(ContactShapes, ConvexOutsideSoTheHessianIsPositiveSemiDefinite) {
-  for (const Shape& shape : testShapes()) {
-    for (int trial = 0; trial < 50; ++trial) {
+    for (int trial = 0; trial < 40; ++trial) {
       const Eigen::Vector3d p = randomPoint(0.8);
-      const SignedDistance sd = signedDistance(shape, p, true);
-      if (sd.distance <= 0.0) continue;
-      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(sd.hessian).eigenvalues().minCoeff(), -1e-12);
+      const SignedDistance sd = signedDistance(shape, p);
+      if (sd.distance <= 0.02) continue;
+      Eigen::Vector3d fd;
+      const double h = 1e-6;
+      for (int k = 0; k < 3; ++k) {
+        Eigen::Vector3d e = Eigen::Vector3d::Zero();
+        e[k] = h;
+        fd[k] = (signedDistance(shape, p + e).distance - signedDistance(shape, p - e).distance) / (2 * h);
+      }
+      EXPECT_LT((fd - sd.normal).norm(), 1e-7) << shapeTypeName(shape.type);
+      EXPECT_NEAR(sd.normal.norm(), 1.0, 1e-12);
     }
   }
 }
@@ -265,6 +260,31 @@ TEST(ContactPrimitives, DerivativesMatchFiniteDifferencesInEveryRegion) {
   // Vertex, edge and face regions were all exercised.
   EXPECT_EQ(ptRegions, (std::set<int>{0, 1, 2}));
   EXPECT_EQ(eeRegions, (std::set<int>{0, 1, 2}));
+}
+
+TEST(ContactPrimitives, GaussNewtonBarrierHessianIsPsdAndExactForMotionAlongTheNormal) {
+  const double sHat = 0.04;
+  for (int trial = 0; trial < 200; ++trial) {
+    Eigen::Vector3d x[4];
+    for (auto& p : x) p = randomPoint(0.3);
+    for (int which = 0; which < 2; ++which) {
+      Vector12 g;
+      Matrix12 H;
+      const PrimitiveDistance pd = which == 0 ? pointTriangleDistance(x[0], x[1], x[2], x[3], &g, &H)
+                                              : edgeEdgeDistance(x[0], x[1], x[2], x[3], &g, &H);
+      if (pd.squared >= sHat || pd.squared <= 0) continue;
+      const double b1 = barrier::first(pd.squared, sHat), b2 = barrier::second(pd.squared, sHat);
+      const Matrix12 exact = b2 * g * g.transpose() + b1 * H;
+      const Matrix12 gn = barrierGaussNewtonHessian(pd, b1, b2);
+      const double scale = gn.norm();
+      EXPECT_GE(Eigen::SelfAdjointEigenSolver<Matrix12>(gn).eigenvalues().minCoeff(), -1e-9 * scale);
+      // Moving the point (the first edge) along the contact normal, the exact curvature: the
+      // distance changes linearly along it.
+      Vector12 n = Vector12::Zero();
+      for (int k = 0; k < (which == 0 ? 1 : 2); ++k) n.segment<3>(3 * k) = pd.r.normalized();
+      EXPECT_NEAR(n.dot(gn * n), n.dot(exact * n), 1e-8 * scale);
+    }
+  }
 }
 
 TEST(ContactPrimitives, EdgeCrossDerivatives) {

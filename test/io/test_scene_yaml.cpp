@@ -79,7 +79,8 @@ TEST(SceneYaml, EveryShippedSceneLoadsAndBuilds) {
     EXPECT_EQ(sim->simulator->integrator().name(), scene->integrator);
   }
   for (const char* expected :
-       {"hanging_cloth.yaml", "planar_sheet.yaml", "seed_triangle.yaml", "stiff_cloth.yaml"}) {
+       {"hanging_cloth.yaml", "planar_sheet.yaml", "seed_triangle.yaml", "stiff_cloth.yaml",
+        "table_drape.yaml", "sphere_drape.yaml", "fold.yaml"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), expected), names.end()) << expected;
   }
 }
@@ -145,6 +146,107 @@ TEST(SceneYaml, BuildErrorsNameTheirKey) {
       parse(variant("mesh.dim", "2") + "\nbending: {stiffness: 1e-3}\n");
   ASSERT_TRUE(planar.ok()) << planar.error();
   expectError(buildSimulation(*planar).error(), {"bending.stiffness", "planar"});
+}
+
+// Obstacles and contact: every key is read with its unit, a key of another shape or a missing
+// one is named, and geometry that cannot work is an error naming the obstacle and the vertex.
+TEST(SceneYaml, ObstaclesAndContact) {
+  const Expected<Scene> scene = parse(std::string(kBase) + R"(
+obstacles:
+  - {name: table, type: box, center: [0.5, 0.4, -0.5], size: [2, 2, 1], orientation: [0, 0, 0.1], friction: 0.4}
+  - {type: sphere, center: [0.5, 0.4, 0.3], radius: 0.1, velocity: [0, 0, 0.2]}
+  - {name: finger, type: capsule, center: [0, 0, 0.05], radius: 0.01, length: 0.05, frame: gripper}
+  - {name: floor, type: plane, point: [0, 0, -2], normal: [0, 0, 2],
+     trajectory: [{time: 0, offset: [0, 0, 0]}, {time: 1, offset: [0, 0, 0.5]}]}
+contact: {distance: 0.003, stiffness: 20, self_collision: true, self_friction: 0.2, friction_velocity: 0.002}
+)");
+  ASSERT_TRUE(scene.ok()) << scene.error();
+  ASSERT_EQ(scene->obstacles.size(), 4u);
+  EXPECT_EQ(scene->obstacles[0].name, "table");
+  EXPECT_EQ(scene->obstacles[0].size, Eigen::Vector3d(2, 2, 1));
+  EXPECT_EQ(scene->obstacles[0].orientation.z(), 0.1);
+  EXPECT_EQ(scene->obstacles[0].friction, 0.4);
+  EXPECT_EQ(scene->obstacles[1].name, "obstacle_1");
+  EXPECT_EQ(scene->obstacles[1].velocity.z(), 0.2);
+  EXPECT_EQ(scene->obstacles[2].frame, "gripper");
+  EXPECT_EQ(scene->obstacles[3].trajectory.size(), 2u);
+  EXPECT_EQ(scene->contact.distance, 0.003);
+  EXPECT_EQ(scene->contact.stiffness, 20.0);
+  EXPECT_TRUE(scene->contact.selfCollision);
+  EXPECT_EQ(scene->contact.selfFriction, 0.2);
+  EXPECT_EQ(scene->contact.frictionVelocity, 0.002);
+  const Expected<Scene> automatic = parse(std::string(kBase) + "contact: {stiffness: auto}\n");
+  ASSERT_TRUE(automatic.ok()) << automatic.error();
+  EXPECT_EQ(automatic->contact.stiffness, 0.0);
+
+  const std::string sphere = "obstacles: [{type: sphere, center: [0, 0, 1], radius: 0.1";
+  expectParseError(std::string(kBase) + sphere + ", size: [1, 1, 1]}]\n",
+                   {"unknown key 'obstacles[0].size'", "known here", "radius"});
+  expectParseError(std::string(kBase) + "obstacles: [{type: cone}]\n", {"obstacles[0].type", "cone", "capsule"});
+  expectParseError(std::string(kBase) + "obstacles: [{center: [0, 0, 0]}]\n", {"obstacles[0].type", "required"});
+  expectParseError(std::string(kBase) + "obstacles: [{type: box, center: [0, 0, 0]}]\n", {"obstacles[0].size", "required"});
+  expectParseError(std::string(kBase) + "obstacles: [{type: capsule, radius: 0.1}]\n", {"obstacles[0].length"});
+  expectParseError(std::string(kBase) + sphere + ", friction: -1}]\n", {"obstacles[0].friction"});
+  expectParseError(std::string(kBase) + "obstacles: [{type: sphere, radius: 0}]\n", {"obstacles[0].radius", "positive"});
+  expectParseError(std::string(kBase) + "obstacles: [{type: plane, normal: [0, 0, 0]}]\n", {"obstacles[0].normal"});
+  expectParseError(std::string(kBase) + sphere + ", frame: hand, velocity: [1, 0, 0]}]\n", {"obstacles[0]", "hand", "velocity"});
+  expectParseError(std::string(kBase) + sphere + ", trajectory: [{time: 1, offset: [0, 0, 0]}, {time: 0.5, offset: [0, 0, 1]}]}]\n",
+                   {"obstacles[0].trajectory[1].time", "later"});
+  expectParseError(std::string(kBase) + sphere + ", name: 'my ball'}]\n", {"obstacles[0].name", "my ball"});
+  expectParseError(std::string(kBase) + sphere + ", name: a}, {type: plane, name: a}]\n", {"obstacles[1].name", "'a'"});
+  expectParseError(std::string(kBase) + "contact: {distance: 0}\n", {"contact.distance", "positive"});
+  expectParseError(std::string(kBase) + "contact: {stiffness: -3}\n", {"contact.stiffness", "auto"});
+  expectParseError(std::string(kBase) + "contact: {self_colision: true}\n", {"unknown key 'contact.self_colision'"});
+  expectParseError(variant("integrator.name", "xpbd") + "\ncontact: {self_collision: true}\n",
+                   {"contact.self_collision", "implicit", "xpbd"});
+  expectParseError(variant("mesh.dim", "2") + "\nobstacles: [{type: plane}]\n", {"obstacles", "3D"});
+  expectParseError(std::string(kBase) + "pins: [{vertices: [0], velocity: [1, 0, 0], trajectory: [{time: 0, offset: [0, 0, 0]}]}]\n",
+                   {"pins[0]", "velocity or trajectory"});
+}
+
+TEST(SceneYaml, ContactBuildErrorsNameTheObstacleAndVertex) {
+  // The base cloth lies in z = 0: a sphere around vertex 6 (at (0.25, 0.267, 0)) contains it.
+  const Expected<Scene> inside = parse(std::string(kBase) + "obstacles: [{name: ball, type: sphere, center: [0.25, 0.267, 0], radius: 0.05}]\n");
+  ASSERT_TRUE(inside.ok()) << inside.error();
+  const Expected<Simulation> insideSim = buildSimulation(*inside);
+  ASSERT_FALSE(insideSim.ok());
+  expectError(insideSim.error(), {"obstacles[0]", "'ball'", "vertex 6", "inside"});
+  // A pinned vertex may sit inside (the pin wins); one following a frame is placed later.
+  const Expected<Scene> pinned = parse(std::string(kBase) + "pins: [{vertices: [6]}]\nobstacles: [{type: sphere, center: [0.25, 0.267, 0], radius: 0.05}]\n");
+  ASSERT_TRUE(pinned.ok()) << pinned.error();
+  EXPECT_TRUE(buildSimulation(*pinned).ok());
+  // Self-collision: the contact distance must stay below the rest distance of parts of the cloth
+  // that share no vertex (here about 0.19 m).
+  const Expected<Scene> coarse = parse(std::string(kBase) + "contact: {self_collision: true, distance: 0.3}\n");
+  ASSERT_TRUE(coarse.ok()) << coarse.error();
+  const Expected<Simulation> coarseSim = buildSimulation(*coarse);
+  ASSERT_FALSE(coarseSim.ok());
+  expectError(coarseSim.error(), {"contact.distance", "0.3", "share no vertex"});
+  const Expected<Scene> fine = parse(std::string(kBase) + "contact: {self_collision: true, distance: 0.01}\n");
+  ASSERT_TRUE(fine.ok()) << fine.error();
+  EXPECT_TRUE(buildSimulation(*fine).ok());
+}
+
+TEST(SceneYaml, PinTrajectoriesFollowTheirWaypoints) {
+  const Expected<Scene> scene = parse(std::string(kBase) + R"(
+gravity: [0, 0, 0]
+pins: [{vertices: [0], trajectory: [{time: 0, offset: [0, 0, 0]}, {time: 0.1, offset: [0, 0, 0.1]}, {time: 0.3, offset: [0.2, 0, 0.1]}]}]
+)");
+  ASSERT_TRUE(scene.ok()) << scene.error();
+  Expected<Simulation> sim = buildSimulation(*scene);
+  ASSERT_TRUE(sim.ok()) << sim.error();
+  Simulator& s = *sim->simulator;
+  // Waypoints on step boundaries (dt = 0.01 s): the pin is exactly on the polyline.
+  for (int step = 1; step <= 40; ++step) {
+    ASSERT_TRUE(sim->script.applyDue(s).ok());
+    ASSERT_TRUE(s.step().ok);
+    const double t = step * 0.01;
+    const Eigen::Vector3d expected = t <= 0.1 ? Eigen::Vector3d(0, 0, t)
+                                   : t <= 0.3 ? Eigen::Vector3d(t - 0.1, 0, 0.1)
+                                              : Eigen::Vector3d(0.2, 0, 0.1);
+    EXPECT_LT((s.pinTarget(0) - expected).norm(), 1e-12) << "t = " << t;
+    EXPECT_LT((s.state().x.head<3>() - expected).norm(), 1e-12) << "t = " << t;
+  }
 }
 
 TEST(SceneYaml, FilesMalformedOrMissing) {

@@ -70,6 +70,13 @@ TEST(FemClothSim, EverySceneWithEveryIntegratorRuns) {
       const Result r = runSim({"--scene", entry.path().string(), "--integrator", integrator,
                                "--duration", "0.02", "--no-output", "--quiet"});
       const std::string what = entry.path().filename().string() + " with " + integrator;
+      // Self-collision is handled by the implicit steppers' barrier only (docs/contact.md): a
+      // scene that turns it on refuses the explicit steppers, naming the key.
+      if (r.err.find("contact.self_collision needs an implicit integrator") != std::string::npos) {
+        EXPECT_EQ(r.status, 2) << what;
+        EXPECT_TRUE(integrator == "symplectic_euler" || integrator == "xpbd") << what << r.err;
+        continue;
+      }
       EXPECT_EQ(r.status, 0) << what << "\n" << r.err;
       EXPECT_NE(r.out.find("integrator:   " + integrator), std::string::npos) << what << r.out;
       // "steps:        N of N (...)": all steps taken.

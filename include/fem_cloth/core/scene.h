@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/implicit.h"
 #include "fem_cloth/core/integrators/symplectic_euler.h"
@@ -37,6 +38,9 @@ struct ScenePin {
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector3d> targets;
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s, scripted pin motion
+  /// Scripted motion through waypoints: the targets move by these offsets (m) at these times (s),
+  /// linearly in between (held before the first and after the last); instead of velocity.
+  std::vector<TrajectoryPoint> trajectory;
   double releaseAt = std::numeric_limits<double>::infinity();  ///< s
 };
 
@@ -45,6 +49,24 @@ struct SceneForce {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();  ///< N, on each selected vertex
   double start = 0.0;                                ///< s
   double duration = std::numeric_limits<double>::infinity();  ///< s
+};
+
+/// An obstacle as a scene gives it (docs/scenes.md, `obstacles`). Geometry in metres, in the
+/// simulation frame or, with `frame`, in that tf frame.
+struct SceneObstacle {
+  std::string name;  ///< default obstacle_<index>; names the obstacle in messages and topics
+  std::string type;  ///< plane, sphere, box or capsule
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();   ///< plane: a point on it
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< plane: outward normal (any length)
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< sphere, box, capsule
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();    ///< box: full extents along its axes
+  Eigen::Vector3d orientation = Eigen::Vector3d::Zero();  ///< box, capsule: roll, pitch, yaw (rad)
+  double radius = 0.0;  ///< sphere, capsule
+  double length = 0.0;  ///< capsule: between the centres of its end caps, along its local z
+  double friction = 0.0;
+  std::string frame;
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< m/s
+  std::vector<TrajectoryPoint> trajectory;
 };
 
 struct SceneInitialPosition {
@@ -92,6 +114,8 @@ struct Scene {
 
   std::vector<ScenePin> pins;
   std::vector<SceneForce> forces;
+  std::vector<SceneObstacle> obstacles;
+  ContactSettings contact;  ///< used only with obstacles or self_collision
   std::vector<SceneInitialPosition> initialPositions;
   Eigen::Vector3d initialVelocity = Eigen::Vector3d::Zero();
 
@@ -104,6 +128,14 @@ const std::vector<std::string>& integratorNames();
 /// Range checks on every value; the message names the YAML key.
 Status validateScene(const Scene& scene);
 
+/// The obstacle a scene entry describes; the message names the key (`key` is its path).
+Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& key);
+
+/// True when the scene needs contact (obstacles, or self-collision).
+inline bool sceneHasContact(const Scene& scene) {
+  return !scene.obstacles.empty() || scene.contact.selfCollision;
+}
+
 /// Membrane Lame parameters (N/m) of a scene: volumetric moduli times thickness.
 Expected<Lame> membraneLame(const Scene& scene);
 
@@ -113,9 +145,10 @@ class SceneScript {
  public:
   struct Event {
     double time = 0.0;
-    enum class Kind { ReleasePin, ApplyForce } kind = Kind::ReleasePin;
+    enum class Kind { ReleasePin, ApplyForce, PinVelocity } kind = Kind::ReleasePin;
     Index vertex = 0;
     Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();  ///< PinVelocity: the pin's new velocity
     double duration = 0.0;
   };
   void add(const Event& event);

@@ -13,6 +13,7 @@
 #include <optional>
 #include <vector>
 
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
@@ -29,7 +30,7 @@ struct SimulatorSettings {
 };
 
 /// Energies in joules. The balance error is the drift of
-///   kinetic + strain + bending + gravity - externalWork - pinWork + dissipated
+///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork + dissipated
 /// since the start (or the last reset); zero for the exact solution, numerical dissipation
 /// (implicit steppers, XPBD) or error otherwise.
 struct EnergyReport {
@@ -39,6 +40,7 @@ struct EnergyReport {
   double gravity = 0.0;  ///< potential relative to the initial positions
   double externalWork = 0.0;
   double pinWork = 0.0;
+  double contactWork = 0.0;  ///< by obstacles and self-contact, friction included (<= 0 when static)
   double dissipated = 0.0;
   double total = 0.0;  ///< kinetic + strain + bending + gravity
   double balanceError = 0.0;
@@ -53,6 +55,10 @@ class Simulator {
   const Model& model() const { return *model_; }
   Integrator& integrator() { return *integrator_; }
   const Integrator& integrator() const { return *integrator_; }
+  /// Obstacles and self-contact. Without one (the default) no contact code runs at all.
+  void setContact(std::unique_ptr<ContactModel> contact) { contact_ = std::move(contact); }
+  ContactModel* contact() { return contact_.get(); }
+  const ContactModel* contact() const { return contact_.get(); }
   const SimulatorSettings& settings() const { return settings_; }
   const State& state() const { return state_; }
   double time() const { return state_.time; }
@@ -109,6 +115,7 @@ class Simulator {
 
   std::shared_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
+  std::unique_ptr<ContactModel> contact_;
   SimulatorSettings settings_;
   State state_;
   State backup_;
@@ -128,7 +135,7 @@ class Simulator {
   // Energy bookkeeping.
   VectorX initialPositions_;
   double initialTotal_ = 0.0;
-  double externalWork_ = 0.0, pinWork_ = 0.0, dissipated_ = 0.0;
+  double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, dissipated_ = 0.0;
   double sizeScale_ = 0.0;
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.

@@ -18,10 +18,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // Clamps the negative eigenvalues of a symmetric matrix to zero (Li et al. 2020, section 4.3:
 // each contact's Hessian is projected before assembly, so Newton directions descend).
-template <int N>
-Eigen::Matrix<double, N, N> projectPsd(const Eigen::Matrix<double, N, N>& A) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, N, N>> eig(A);
-  const Eigen::Matrix<double, N, 1> lambda = eig.eigenvalues().cwiseMax(0.0);
+Matrix12 projectPsd(const Matrix12& A) {
+  const Eigen::SelfAdjointEigenSolver<Matrix12> eig(A);
+  const Vector12 lambda = eig.eigenvalues().cwiseMax(0.0);
   return eig.eigenvectors() * lambda.asDiagonal() * eig.eigenvectors().transpose();
 }
 
@@ -109,48 +108,53 @@ void ContactModel::setSubstepPoses(double f0, double f1) {
   }
 }
 
-SignedDistance ContactModel::obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd,
-                                              bool wantHessian) {
+SignedDistance ContactModel::obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd) {
   ++checks_;
   const Eigen::Isometry3d& pose = atEnd ? poseEnd_[k] : poseStart_[k];
   const Eigen::Isometry3d& inverse = atEnd ? inverseEnd_[k] : inverseStart_[k];
-  SignedDistance sd = signedDistance(obstacles_[k].shape, inverse * p, wantHessian);
+  SignedDistance sd = signedDistance(obstacles_[k].shape, inverse * p);
   sd.normal = pose.linear() * sd.normal;
   sd.closest = pose * sd.closest;
-  if (wantHessian) sd.hessian = pose.linear() * sd.hessian * pose.linear().transpose();
   return sd;
 }
 
-double ContactModel::minimumDistance(const VectorX& x, const std::vector<char>& pinned) {
+double ContactModel::minimumObstacleDistance(const VectorX& x, const std::vector<char>& pinned,
+                                             Index* vertexOut, std::size_t* obstacleOut) {
   pinned_ = &pinned;
   setSubstepPoses(0.0, 0.0);
   double smallest = kInf;
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      smallest = std::min(smallest, obstacleDistance(k, vertex(x, i), true, false).distance);
-    }
-  }
-  if (settings_.selfCollision) {
-    selfCandidates(x, nullptr);
-    for (const auto& [p, t] : pointTriangle_) {
-      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
-      ++checks_;
-      smallest = std::min(smallest, std::sqrt(pointTriangleDistance(vertex(x, p), vertex(x, tri[0]),
-                                                                    vertex(x, tri[1]), vertex(x, tri[2]))
-                                                  .squared));
-    }
-    for (const auto& [a, b] : edgeEdge_) {
-      const auto& ea = edges_[static_cast<std::size_t>(a)];
-      const auto& eb = edges_[static_cast<std::size_t>(b)];
-      ++checks_;
-      smallest = std::min(smallest, std::sqrt(edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]),
-                                                               vertex(x, eb[0]), vertex(x, eb[1]))
-                                                  .squared));
+      const double d = obstacleDistance(k, vertex(x, i), true).distance;
+      if (d < smallest) {
+        smallest = d;
+        if (vertexOut != nullptr) *vertexOut = i;
+        if (obstacleOut != nullptr) *obstacleOut = k;
+      }
     }
   }
   pinned_ = nullptr;
   return smallest;
+}
+
+double ContactModel::minimumSelfDistance(const VectorX& x) {
+  selfCandidates(x, nullptr);
+  double smallest = kInf;
+  for (const auto& [p, t] : pointTriangle_) {
+    const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+    ++checks_;
+    smallest = std::min(smallest, pointTriangleDistance(vertex(x, p), vertex(x, tri[0]),
+                                                        vertex(x, tri[1]), vertex(x, tri[2])).squared);
+  }
+  for (const auto& [a, b] : edgeEdge_) {
+    const auto& ea = edges_[static_cast<std::size_t>(a)];
+    const auto& eb = edges_[static_cast<std::size_t>(b)];
+    ++checks_;
+    smallest = std::min(smallest, edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]),
+                                                   vertex(x, eb[0]), vertex(x, eb[1])).squared);
+  }
+  return std::sqrt(smallest) < settings_.distance ? std::sqrt(smallest) : kInf;
 }
 
 // --- Self-contact broad phase ------------------------------------------------------------------
@@ -211,7 +215,7 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
     if (!isFree(i)) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
       if (!(obstacles_[k].friction > 0.0)) continue;
-      const SignedDistance sd = obstacleDistance(k, vertex(x0, i), false, false);
+      const SignedDistance sd = obstacleDistance(k, vertex(x0, i), false);
       if (!(sd.distance > 0.0 && sd.distance < dHat)) continue;
       Friction f;
       f.vertices[0] = i;
@@ -266,9 +270,10 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   frictionOrigin_ = xc;
 }
 
-Status ContactModel::feasibleStart(const VectorX& x0, VectorX& x) {
+Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x) {
   const double dHat = settings_.distance;
   const Index n = mesh_->numVertices();
+  x = x0;
   for (std::size_t k = 0; k < obstacles_.size(); ++k) {
     if (poseStart_[k].matrix() == poseEnd_[k].matrix()) continue;
     const Eigen::Isometry3d carry = poseEnd_[k] * inverseStart_[k];
@@ -284,15 +289,14 @@ Status ContactModel::feasibleStart(const VectorX& x0, VectorX& x) {
         const Eigen::Isometry3d pose = interpolatePose(poseStart_[k], poseEnd_[k], t);
         return signedDistance(obstacles_[k].shape, pose.inverse() * p).distance;
       };
-      const double d0 = distanceAt(0.0);
       const double lp = shift.norm() + angle * ((p - poseStart_[k].translation()).norm() + shift.norm());
-      if (ccd::comesWithin(distanceAt, d0, lp, dHat)) x.segment<3>(3 * i) = carry * p;
+      if (ccd::comesWithin(distanceAt, distanceAt(0.0), lp, dHat)) x.segment<3>(3 * i) = carry * p;
     }
   }
   for (Index i = 0; i < n; ++i) {
     if (!isFree(i)) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const double d = obstacleDistance(k, vertex(x, i), true, false).distance;
+      const double d = obstacleDistance(k, vertex(x, i), true).distance;
       if (!(d > 0.0)) {
         return Error{"vertex " + std::to_string(i) + " would be inside obstacle '" +
                      obstacles_[k].name + "' (" + std::to_string(d) +
@@ -300,28 +304,42 @@ Status ContactModel::feasibleStart(const VectorX& x0, VectorX& x) {
       }
     }
   }
-  if (settings_.selfCollision) {
-    const VectorX motion = x - x0;
-    if (prepareSegment(x0, motion) < 1.0) {
-      return Error{"the pins' (or obstacles') motion in this step would pass the cloth through itself"};
-    }
+  if (settings_.selfCollision && x != x0 && prepareSegment(x0, x - x0, false) < 1.0) {
+    return Error{"an obstacle's motion in this step would pass the cloth through itself"};
   }
+  // Everything at once: pins to their targets, free vertices by their own wanted motion.
+  VectorX step(x.size());
+  for (Eigen::Index d = 0; d < x.size(); ++d) {
+    step[d] = (*pinned_)[d] ? wanted[d] - x[d] : wanted[d] - x0[d];
+  }
+  if (prepareSegment(x, step) >= 1.0) {
+    x += step;
+    return Status::success();
+  }
+  // Else the pins first, the free vertices staying, then the free vertices as far as is safe.
+  VectorX free = step;
+  for (Eigen::Index d = 0; d < x.size(); ++d) ((*pinned_)[d] ? free[d] : step[d]) = 0.0;
+  if (prepareSegment(x, step) < 1.0) {
+    return Error{"the pins' motion in this step would pass the cloth through itself"};
+  }
+  x += step;
+  x += prepareSegment(x, free) * free;
   return Status::success();
 }
 
-double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx) {
+double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles) {
   double t = 1.0;
-  const Index n = mesh_->numVertices();
+  const Index n = withObstacles ? mesh_->numVertices() : 0;
   for (Index i = 0; i < n; ++i) {
     if (!isFree(i)) continue;
     const Eigen::Vector3d p = vertex(x, i), step = vertex(dx, i);
     const double length = step.norm();
     if (length == 0.0) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const double d0 = obstacleDistance(k, p, true, false).distance;
+      const double d0 = obstacleDistance(k, p, true).distance;
       // A vertex cannot lose more distance than it moves.
       if (length * t < (1.0 - ccd::kRescaling) * d0) continue;
-      auto at = [&](double s) { return obstacleDistance(k, p + s * step, true, false).distance; };
+      auto at = [&](double s) { return obstacleDistance(k, p + s * step, true).distance; };
       t = std::min(t, ccd::additive(at, d0, length, t));
     }
   }
@@ -379,6 +397,7 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
                                  std::vector<ObstacleWrench>* wrench, ContactStats* stats) {
   const double dHat = settings_.distance;
   const bool wantHessian = hessian != nullptr;
+  const bool wantGradient = gradient != nullptr || wantHessian || wrench != nullptr;
   double energy = 0.0;
   auto note = [&](double d) {
     if (stats == nullptr) return;
@@ -389,7 +408,7 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const SignedDistance sd = obstacleDistance(k, vertex(x, i), true, wantHessian);
+      const SignedDistance sd = obstacleDistance(k, vertex(x, i), true);
       note(sd.distance);
       if (!(sd.distance > 0.0)) return kInf;
       if (sd.distance >= dHat) continue;
@@ -403,11 +422,13 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
         (*wrench)[k].torque += sd.closest.cross(g);
       }
       if (wantHessian) {
-        // d2s/dx2 = 2 n n^T + 2 d Hd.
-        const Eigen::Matrix3d nn = sd.normal * sd.normal.transpose();
-        const Eigen::Matrix3d H =
-            w * (barrier::second(s, sHat_) * 4.0 * s * nn + b1 * (2.0 * nn + 2.0 * d * sd.hessian));
-        addBlock(i, i, scale * projectPsd<3>(H), hessian, outside);
+        // With s = d^2: d2s = 2 n n^T + 2 d Hd, and the Hessian is
+        //   w ((4 b'' s + 2 b') n n^T + 2 b' d Hd).
+        // An exact distance has |grad d| = 1, so Hd n = 0, and outside a convex shape Hd is
+        // positive semi-definite: its part (times b' < 0) is negative across the normal, and the
+        // PSD projection keeps the normal part alone (the same as barrierGaussNewtonHessian).
+        const double along = std::max(4.0 * barrier::second(s, sHat_) * s + 2.0 * b1, 0.0);
+        addBlock(i, i, (scale * w * along) * (sd.normal * sd.normal.transpose()), hessian, outside);
       }
     }
   }
@@ -415,24 +436,25 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
   if (settings_.selfCollision) {
     Vector12 gs, gc;
     Matrix12 Hs, Hc;
+    // H: already positive semi-definite.
     auto scatter = [&](const std::array<Index, 4>& v, const Vector12& g, const Matrix12* H) {
       if (gradient != nullptr) {
         for (int a = 0; a < 4; ++a) gradient->segment<3>(3 * v[a]) += scale * g.segment<3>(3 * a);
       }
       if (H != nullptr) {
-        const Matrix12 P = scale * projectPsd<12>(*H);
         for (int a = 0; a < 4; ++a) {
-          for (int b = 0; b < 4; ++b) addBlock(v[a], v[b], P.block<3, 3>(3 * a, 3 * b), hessian, outside);
+          for (int b = 0; b < 4; ++b) {
+            addBlock(v[a], v[b], scale * H->block<3, 3>(3 * a, 3 * b), hessian, outside);
+          }
         }
       }
     };
-    const bool wantGradient = gradient != nullptr || wantHessian;
     for (const auto& [p, t] : pointTriangle_) {
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
       ++checks_;
       const PrimitiveDistance pd =
           pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
-                                wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
+                                wantGradient ? &gs : nullptr);
       note(std::sqrt(pd.squared));
       if (!(pd.squared > 0.0)) return kInf;
       if (pd.squared >= sHat_) continue;
@@ -441,7 +463,7 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
       if (!wantGradient) continue;
       const double b1 = barrier::first(pd.squared, sHat_);
       Matrix12 H;
-      if (wantHessian) H = w * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs);
+      if (wantHessian) H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
       scatter({p, tri[0], tri[1], tri[2]}, w * b1 * gs, wantHessian ? &H : nullptr);
     }
     for (const auto& [a, b] : edgeEdge_) {
@@ -465,10 +487,13 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
       const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
       const Vector12 gb = b1 * gs, ge = e1 * gc;
       Matrix12 H;
-      if (wantHessian) {
-        H = w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
-                 gb * ge.transpose() + ge * gb.transpose() +
-                 bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc));
+      if (wantHessian && e == 1.0) {
+        H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
+      } else if (wantHessian) {
+        // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
+        H = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
+                            gb * ge.transpose() + ge * gb.transpose() +
+                            bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
       }
       scatter({ea[0], ea[1], eb[0], eb[1]}, w * (e * gb + bv * ge), wantHessian ? &H : nullptr);
     }
@@ -512,14 +537,12 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {
   std::vector<ObstacleWrench> wrench(obstacles_.size());
   VectorX gradient = VectorX::Zero(x.size());
-  const std::uint64_t before = checks_;
   ContactStats here;
   evaluateAll(x, &gradient, nullptr, nullptr, 1.0, &wrench, &here);
   wrenches_ = wrench;
   stats.contacts = here.contacts;
   stats.minDistance = here.minDistance;
   stats.work += -gradient.dot(x - x0);
-  stats.checks += checks_ - before;
   pinned_ = nullptr;
 }
 
@@ -530,19 +553,41 @@ void ContactModel::beginProjection(double f0, double f1) {
   std::fill(projectedBy_.begin(), projectedBy_.end(), -1);
 }
 
-int ContactModel::projectOntoObstacles(VectorX& x, const std::vector<char>& pinned,
-                                       VectorX& normalPush, VectorX& correction) {
+int ContactModel::projectOntoObstacles(VectorX& x, const VectorX& xStart,
+                                       const std::vector<char>& pinned, VectorX& normalPush,
+                                       VectorX& correction) {
   pinned_ = &pinned;
   const double dHat = settings_.distance;
   int moved = 0;
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const SignedDistance sd = obstacleDistance(k, vertex(x, i), true, false);
+      const Shape& shape = obstacles_[k].shape;
+      const Eigen::Vector3d local = inverseEnd_[k] * vertex(x, i);
+      ++checks_;
+      SignedDistance sd = signedDistance(shape, local);
       if (sd.distance >= dHat) continue;
-      const double push = dHat - sd.distance;
-      x.segment<3>(3 * i) += push * sd.normal;
-      correction.segment<3>(3 * i) += push * sd.normal;
+      if (sd.distance < 0.0) {
+        // Inside: the nearest face may be the wrong one (a vertex that fell onto a table near
+        // its edge is nearer the side). Use the surface where the vertex came in instead, found
+        // by bisection on its path relative to the obstacle since the start of the substep; its
+        // tangent plane supports the (convex) shape, so the vertex pushed out to dHat in front
+        // of it is outside (Bridson et al. 2002 resolve such cases by continuous detection).
+        Eigen::Vector3d outside = inverseStart_[k] * vertex(xStart, i), inside = local;
+        ++checks_;
+        if (signedDistance(shape, outside).distance > 0.0) {
+          for (int it = 0; it < 50; ++it) {
+            const Eigen::Vector3d middle = 0.5 * (outside + inside);
+            ++checks_;
+            (signedDistance(shape, middle).distance > 0.0 ? outside : inside) = middle;
+          }
+          sd = signedDistance(shape, outside);
+        }
+      }
+      const double push = dHat - sd.normal.dot(local - sd.closest);
+      const Eigen::Vector3d move = poseEnd_[k].linear() * (push * sd.normal);
+      x.segment<3>(3 * i) += move;
+      correction.segment<3>(3 * i) += move;
       normalPush[i] += push;
       projectedBy_[static_cast<std::size_t>(i)] = static_cast<int>(k);
       ++moved;
@@ -556,7 +601,7 @@ void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart,
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     const int k = projectedBy_[static_cast<std::size_t>(i)];
     if (k < 0 || !(obstacles_[static_cast<std::size_t>(k)].friction > 0.0)) continue;
-    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true, false);
+    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true);
     // Displacement relative to the obstacle's surface point under the vertex.
     const Eigen::Vector3d surfaceMotion =
         sd.closest - poseStart_[static_cast<std::size_t>(k)] * (inverseEnd_[static_cast<std::size_t>(k)] * sd.closest);
@@ -574,7 +619,7 @@ void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart,
 }
 
 void ContactModel::finishProjection(const VectorX& x, const VectorX& xStart, const VectorX& correction,
-                                    double h, ContactStats& stats) {
+                                    double h, double massScale, ContactStats& stats) {
   std::vector<ObstacleWrench> wrench(obstacles_.size());
   int contacts = 0;
   double work = 0.0;
@@ -582,9 +627,9 @@ void ContactModel::finishProjection(const VectorX& x, const VectorX& xStart, con
     const int k = projectedBy_[static_cast<std::size_t>(i)];
     if (k < 0) continue;
     ++contacts;
-    const Eigen::Vector3d force = mass_[i] * vertex(correction, i) / (h * h);  // on the cloth
+    const Eigen::Vector3d force = massScale * mass_[i] * vertex(correction, i) / (h * h);  // on the cloth
     work += force.dot(vertex(x, i) - vertex(xStart, i));
-    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true, false);
+    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true);
     wrench[static_cast<std::size_t>(k)].force -= force;
     wrench[static_cast<std::size_t>(k)].torque -= sd.closest.cross(force);
     stats.minDistance = std::min(stats.minDistance, sd.distance);

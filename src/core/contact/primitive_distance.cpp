@@ -121,6 +121,17 @@ PrimitiveDistance edgeEdgeDistance(const Eigen::Vector3d& a0, const Eigen::Vecto
   return finish(X, w, U, gradient, hessian);
 }
 
+Matrix12 barrierGaussNewtonHessian(const PrimitiveDistance& pd, double b1, double b2) {
+  // (4 b'' s + 2 b') (w w^T) (x) (r r^T / s).
+  const double curvature = std::max(4.0 * b2 * pd.squared + 2.0 * b1, 0.0) / pd.squared;
+  const Eigen::Matrix3d M = curvature * pd.r * pd.r.transpose();
+  Matrix12 H;
+  for (int a = 0; a < 4; ++a) {
+    for (int b = 0; b < 4; ++b) H.block<3, 3>(3 * a, 3 * b) = pd.weights[a] * pd.weights[b] * M;
+  }
+  return H;
+}
+
 double edgeCrossSquared(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1,
                         const Eigen::Vector3d& b0, const Eigen::Vector3d& b1, Vector12* gradient,
                         Matrix12* hessian) {

@@ -5,6 +5,8 @@
 #include <limits>
 #include <sstream>
 
+#include "fem_cloth/core/contact/contact_model.h"
+
 namespace fem_cloth {
 
 namespace {
@@ -88,8 +90,12 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
   const int substeps = std::max(minSubsteps, 1);
   report.substeps = substeps;
   const double h = dt / substeps;
+  const std::uint64_t checksBefore = input.contact ? input.contact->checks() : 0;
   for (int s = 0; s < substeps; ++s) {
-    if (!substep(input, state, h, substeps - s, pinForce, report)) {
+    const bool ok = substep(input, state, h, substeps - s, static_cast<double>(s) / substeps,
+                            static_cast<double>(s + 1) / substeps, pinForce, report);
+    if (input.contact) report.contactChecks = input.contact->checks() - checksBefore;
+    if (!ok) {
       report.ok = false;
       return report;
     }
@@ -100,7 +106,8 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
 }
 
 bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h, int remaining,
-                                 VectorX& pinForce, StepReport& report) {
+                                 double fractionStart, double fractionEnd, VectorX& pinForce,
+                                 StepReport& report) {
   Model& model = *input.model;
   const std::vector<char>& pinned = *input.pinned;
   const VectorX& mass = model.dofMasses();
@@ -151,27 +158,62 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     return 0.5 * c2_ * gamma_ * (x - xc_).dot(scratch_);
   };
 
-  // Initial guess: the explicit prediction xhat + c^2 M^-1 f, pins at their targets. If that
-  // leaves a material's domain, start from the current positions instead.
+  // Contact (Li et al. 2020): Phi gains c^2 (kappa B + D), whose Hessian may couple vertices
+  // outside the model's pattern (self-contact), and every line search is bounded by CCD.
+  ContactModel* const contact = input.contact;
+  if (contact != nullptr) {
+    contact->beginSubstep(state.x, xc_, gamma_, h, pinned, fractionStart, fractionEnd);
+  }
+  // Elastic energy and gradient, plus the contact potential; a zero contact distance, like an
+  // element outside its domain, makes the energy +inf.
+  EvalRequest energyAndGradient;
+  auto evaluate = [&](const VectorX& x, VectorX& gradient) {
+    gradient.setZero(n);
+    energyAndGradient.gradient = &gradient;
+    EvalResult result = model.evaluate(x, energyAndGradient);
+    if (contact != nullptr && result.inDomain) {
+      const double e = contact->evaluate(x, &gradient, nullptr, nullptr, 1.0);
+      result.energy += e;
+      if (!std::isfinite(e)) result.inDomain = false;
+    }
+    return result;
+  };
+
+  // Initial guess: the explicit prediction xhat + c^2 M^-1 f, pins at their targets. With
+  // contact, the inertial prediction xhat instead, as far as it is safe (startingPoint): adding
+  // the forces would push resting cloth into its supports, and Newton would then spend
+  // iterations climbing back out of the barrier (each one only doubles a distance that is too
+  // small). If the guess leaves a material's domain, start from the current positions instead.
   x_.resize(n);
   for (Index i = 0; i < n; ++i) {
     const double target = state.x[i] + ((*input.pinTarget)[i] - state.x[i]) / remaining;
     x_[i] = pinned[i] ? target : xhat_[i] + c2_ * forceTotal_[i] / mass[i];
   }
-  gElastic_.setZero(n);
-  EvalRequest energyAndGradient;
-  energyAndGradient.gradient = &gElastic_;
-  EvalResult r = model.evaluate(x_, energyAndGradient);
+  if (contact != nullptr) {
+    xTrial_ = x_;
+    for (Index i = 0; i < n; ++i) {
+      if (!pinned[i]) xTrial_[i] = xhat_[i];
+    }
+    if (Status s = contact->startingPoint(state.x, xTrial_, x_); !s) {
+      report.error = name() + ": " + s.error();
+      return false;
+    }
+  }
+  EvalResult r = evaluate(x_, gElastic_);
   if (!r.inDomain) {
     for (Index i = 0; i < n; ++i) {
       if (!pinned[i]) x_[i] = state.x[i];
     }
-    gElastic_.setZero();
-    r = model.evaluate(x_, energyAndGradient);
+    if (contact != nullptr) contact->prepareSegment(x_, VectorX::Zero(n));
+    r = evaluate(x_, gElastic_);
     if (!r.inDomain) {
       std::ostringstream msg;
-      msg << name() << ": the pin motion in this step pushes element " << r.firstBadElement
-          << " outside its material's domain (J <= 0)";
+      if (r.firstBadElement >= 0) {
+        msg << name() << ": the pin motion in this step pushes element " << r.firstBadElement
+            << " outside its material's domain (J <= 0)";
+      } else {
+        msg << name() << ": the pin motion in this step pushes the cloth into contact";
+      }
       report.error = msg.str();
       return false;
     }
@@ -234,13 +276,25 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     for (Index i = 0; i < n; ++i) {
       values[hessian.diagonalOffset(i)] += mass[i] * (1.0 + c2_ * gamma_ * alpha_);
     }
-    filterPinned(A, pinned, mass);
+    // Contact Hessian (c^2 times): entries outside the model's pattern make a system of its own.
+    Matrix* system = &A;
+    if (contact != nullptr) {
+      outsidePattern_.clear();
+      contact->evaluate(x_, nullptr, &hessian, &outsidePattern_, c2_);
+      if (!outsidePattern_.empty()) {
+        contactExtra_.resize(n, n);
+        contactExtra_.setFromTriplets(outsidePattern_.begin(), outsidePattern_.end());
+        contactSystem_ = A + contactExtra_;
+        system = &contactSystem_;
+      }
+    }
+    filterPinned(*system, pinned, mass);
     rhs_ = -g_;
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) rhs_[i] = 0.0;
     }
     dx_.setZero(n);
-    if (!solver_->compute(A) || !solver_->solve(rhs_, dx_)) {
+    if (!solver_->compute(*system) || !solver_->solve(rhs_, dx_)) {
       report.error = name() + ": the linear solve (" + solver_->name() + ") failed";
       report.newtonIterations += iterations;
       return false;
@@ -249,11 +303,11 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     // stays in the domain) and stop; no line search, whose test would only compare round-off.
     const double stepLength = dx_.cwiseAbs().maxCoeff();
     lastStep = stepLength;
-    if (stepLength <= stepTolerance) {
+    // With contact the step may go only as far as CCD finds collision-free.
+    const double maxStep = contact != nullptr ? contact->prepareSegment(x_, dx_) : 1.0;
+    if (stepLength <= stepTolerance && maxStep >= 1.0) {
       xTrial_ = x_ + dx_;
-      gElasticTrial_.setZero(n);
-      energyAndGradient.gradient = &gElasticTrial_;
-      if (model.evaluate(xTrial_, energyAndGradient).inDomain) {
+      if (evaluate(xTrial_, gElasticTrial_).inDomain) {
         x_.swap(xTrial_);
         gElastic_.swap(gElasticTrial_);
         potentialGradient(x_, gElastic_, g_);
@@ -263,7 +317,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     }
     // Backtracking line search on Phi (Armijo); +inf (outside the domain) always backtracks.
     const double slope = g_.dot(dx_);
-    double step = 1.0;
+    double step = maxStep;
     bool accepted = false;
     // Close to the minimum the decrease a Newton step makes, about -slope/2 (Newton decrement),
     // falls below the round-off of Phi itself, which is of order eps times the magnitudes of its
@@ -273,11 +327,9 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     // such cancellation, is the merit function instead: the full step is taken if it lowers it.
     const double phiScale =
         std::abs(phi) + 2.0 * c2_ * (std::abs(r.energy) + std::abs(forceTotal_.dot(x_)));
-    if (-slope <= 1e3 * std::numeric_limits<double>::epsilon() * phiScale) {
+    if (-slope <= 1e3 * std::numeric_limits<double>::epsilon() * phiScale && maxStep >= 1.0) {
       xTrial_ = x_ + dx_;
-      gElasticTrial_.setZero(n);
-      energyAndGradient.gradient = &gElasticTrial_;
-      const EvalResult trial = model.evaluate(xTrial_, energyAndGradient);
+      const EvalResult trial = evaluate(xTrial_, gElasticTrial_);
       if (trial.inDomain) {
         potentialGradient(xTrial_, gElasticTrial_, gTrial_);
         dampingGradient(xTrial_, gTrial_);
@@ -290,9 +342,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     }
     for (int b = 0; b <= settings_.maxBacktracks && !accepted; ++b) {
       xTrial_ = x_ + step * dx_;
-      gElasticTrial_.setZero(n);
-      energyAndGradient.gradient = &gElasticTrial_;
-      const EvalResult trial = model.evaluate(xTrial_, energyAndGradient);
+      const EvalResult trial = evaluate(xTrial_, gElasticTrial_);
       const double phiTrial =
           trial.inDomain ? potential(xTrial_, trial.energy) + dampingEnergy(xTrial_)
                          : kInfiniteEnergy;
@@ -330,6 +380,14 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
   if (!x_.allFinite()) {
     report.error = name() + ": the Newton iterate became non-finite";
     return false;
+  }
+
+  if (contact != nullptr) {
+    ContactStats stats;
+    contact->finishSubstep(x_, state.x, stats);
+    report.contacts = stats.contacts;
+    report.minContactDistance = stats.minDistance;
+    report.contactWork += stats.work;
   }
 
   // Commit: velocities, pin forces (the pins supply the residual force on their DOFs: the

@@ -3,6 +3,8 @@
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
+#include <algorithm>
+#include <vector>
 
 #ifdef FEM_CLOTH_HAVE_CHOLMOD
 #include <Eigen/CholmodSupport>
@@ -51,9 +53,17 @@ class DirectSolver final : public LinearSolver {
   explicit DirectSolver(std::string name) : name_(std::move(name)) {}
   std::string name() const override { return name_; }
   bool compute(const Matrix& A) override {
-    if (analyses_ == 0 || A.nonZeros() != analysedNonZeros_) {
+    // The model's pattern is fixed; self-contact adds entries that come and go, so the pattern
+    // is compared whole (cheap next to a factorisation) before the analysis is reused.
+    const bool samePattern =
+        analyses_ > 0 && A.nonZeros() == static_cast<Eigen::Index>(analysedInner_.size()) &&
+        A.outerSize() + 1 == static_cast<Eigen::Index>(analysedOuter_.size()) &&
+        std::equal(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1, analysedOuter_.begin()) &&
+        std::equal(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros(), analysedInner_.begin());
+    if (!samePattern) {
       solver_.analyzePattern(A);
-      analysedNonZeros_ = A.nonZeros();
+      analysedOuter_.assign(A.outerIndexPtr(), A.outerIndexPtr() + A.outerSize() + 1);
+      analysedInner_.assign(A.innerIndexPtr(), A.innerIndexPtr() + A.nonZeros());
       ++analyses_;
     }
     solver_.factorize(A);
@@ -67,7 +77,7 @@ class DirectSolver final : public LinearSolver {
  private:
   std::string name_;
   Factorization solver_;
-  Eigen::Index analysedNonZeros_ = -1;
+  std::vector<int> analysedOuter_, analysedInner_;
 };
 
 class CgSolver final : public LinearSolver {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "fem_cloth/core/contact/contact_model.h"
+
 namespace fem_cloth {
 
 double SymplecticEuler::stableStep(Model& model, const VectorX& x, const std::vector<char>& pinned,
@@ -94,6 +96,8 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
   const double alpha = input.damping.massProportional;
   const double beta = input.damping.stiffnessProportional;
   const VectorX& target = *input.pinTarget;
+  ContactModel* const contact = input.contact;
+  const std::uint64_t checksBefore = contact != nullptr ? contact->checks() : 0;
   for (int s = 0; s < substeps; ++s) {
     gradient_.setZero();
     EvalRequest request;
@@ -124,6 +128,7 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
       }
     }
     velocityStart_ = state.v;
+    if (contact != nullptr) positionStart_ = state.x;
     const double remaining = static_cast<double>(substeps - s);
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) {
@@ -135,6 +140,22 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
         state.v[i] = (state.v[i] + h * force_[i] / mass[i]) / (1.0 + h * alpha);
         state.x[i] += h * state.v[i];
       }
+    }
+    if (contact != nullptr) {
+      // Obstacles: project out to the contact distance with Coulomb friction, inelastically (the
+      // velocity follows the corrected positions; Bridson et al. 2002, section 7).
+      contact->beginProjection(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
+      normalPush_.setZero(model.numVertices());
+      correction_.setZero(n);
+      contact->projectOntoObstacles(state.x, positionStart_, pinned, normalPush_, correction_);
+      contact->applyProjectionFriction(state.x, positionStart_, normalPush_, correction_);
+      state.v += correction_ / h;
+      ContactStats stats;
+      contact->finishProjection(state.x, positionStart_, correction_, h, 1.0 + h * alpha, stats);
+      report.contacts = stats.contacts;
+      report.minContactDistance = stats.minDistance;
+      report.contactWork += stats.work;
+      report.contactChecks = contact->checks() - checksBefore;
     }
     if (alpha > 0.0) {
       report.dissipated += h * alpha * state.v.dot(mass.cwiseProduct(state.v));

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fem_cloth/core/contact/contact_model.h"
+
 namespace fem_cloth {
 
 namespace {
@@ -72,6 +74,8 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
   pinForce.setZero();
   const VectorX& target = *input.pinTarget;
 
+  ContactModel* const contact = input.contact;
+  const std::uint64_t checksBefore = contact != nullptr ? contact->checks() : 0;
   Jacobian G;
   Small K, B;
   SmallVector C, lambda, rhs, dlambda;
@@ -91,6 +95,11 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
       }
     }
     for (auto& l : lambda_) std::fill(l.begin(), l.end(), 0.0);
+    if (contact != nullptr) {
+      contact->beginProjection(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
+      normalPush_.setZero(model.numVertices());
+      correction_.setZero(n);
+    }
     const bool lastSubstep = s + 1 == substeps;
     for (int it = 0; it < settings_.iterations; ++it) {
       const bool recordPinForce = lastSubstep && it + 1 == settings_.iterations;
@@ -152,8 +161,21 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
           }
         }
       }
+      // Obstacles as hard inequality constraints, projected after each sweep.
+      if (contact != nullptr) contact->projectOntoObstacles(state.x, xStart_, pinned, normalPush_, correction_);
     }
     report.xpbdIterations += settings_.iterations;
+    if (contact != nullptr) {
+      // Coulomb friction bounded by the substep's total normal correction (Macklin, Mueller,
+      // Chentanez & Kim, "Unified Particle Physics for Real-Time Applications", 2014, section 6.1).
+      contact->applyProjectionFriction(state.x, xStart_, normalPush_, correction_);
+      ContactStats stats;
+      contact->finishProjection(state.x, xStart_, correction_, h, dampedMass, stats);
+      report.contacts = stats.contacts;
+      report.minContactDistance = stats.minDistance;
+      report.contactWork += stats.work;
+      report.contactChecks = contact->checks() - checksBefore;
+    }
     for (Index i = 0; i < n; ++i) state.v[i] = (state.x[i] - xStart_[i]) / h;
     if (!state.x.allFinite() || !state.v.allFinite()) {
       report.ok = false;

@@ -57,7 +57,6 @@ struct ObstacleWrench {
 /// What contact handling did in a (sub)step.
 struct ContactStats {
   int contacts = 0;           ///< pairs closer than dHat (implicit) or vertices projected (others)
-  std::uint64_t checks = 0;   ///< distance evaluations (vertex-obstacle and primitive pairs)
   double work = 0.0;          ///< J, work of the contact and friction forces on the cloth
   double minDistance = std::numeric_limits<double>::infinity();  ///< m, over contacts considered
 };
@@ -91,9 +90,13 @@ class ContactModel {
 
   /// Wrench on each obstacle at the end of the last step.
   const std::vector<ObstacleWrench>& wrenches() const { return wrenches_; }
-  /// Distances now: the smallest over every free vertex and obstacle, and (with self-collision)
-  /// over every point-triangle and edge-edge pair near each other (m; inf if none).
-  double minimumDistance(const VectorX& x, const std::vector<char>& pinned);
+  /// The smallest distance now between a free vertex and an obstacle (m; inf without obstacles),
+  /// and which.
+  double minimumObstacleDistance(const VectorX& x, const std::vector<char>& pinned,
+                                 Index* vertex = nullptr, std::size_t* obstacle = nullptr);
+  /// The smallest distance between point-triangle and edge-edge pairs that share no vertex and
+  /// are closer than dHat at x (m; inf if there are none).
+  double minimumSelfDistance(const VectorX& x);
 
   // --- Implicit steppers (IPC) -----------------------------------------------------------------
   /// Starts a substep of length h (s) over the fraction [f0, f1] of the step, from positions x0,
@@ -101,14 +104,18 @@ class ContactModel {
   /// (section 5.3): normal forces, tangent bases and contact points at x0, fixed for the substep.
   void beginSubstep(const VectorX& x0, const VectorX& xc, double gamma, double h,
                     const std::vector<char>& pinned, double f0, double f1);
-  /// Makes the first Newton iterate safe. On entry x is x0 with pinned vertices at their targets;
-  /// free vertices that a moving obstacle comes to within dHat of are carried along with it
-  /// (rigidly, which keeps their distance). Fails, naming the vertex, when that still leaves one
-  /// inside an obstacle, or when the pins' motion would pass the cloth through itself.
-  Status feasibleStart(const VectorX& x0, VectorX& x);
+  /// The first Newton iterate of a substep from positions x0: pinned vertices at their targets in
+  /// `wanted`, free vertices as close to theirs as is safe. Free vertices that a moving obstacle
+  /// comes to within dHat of are first carried along with it (rigidly, which keeps their
+  /// distance); then everything moves to `wanted` if continuous collision detection finds the
+  /// way free, else the pins first and the free vertices as far as they safely can. Fails,
+  /// naming the vertex, when a vertex would still end inside an obstacle, or when the pins'
+  /// motion alone would pass the cloth through itself (more substeps may help).
+  Status startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x);
   /// Broad phase for the positions x + t dx, t in [0, 1] (dx may be zero), kept for the
-  /// evaluations that follow, and the largest t that additive CCD finds collision-free.
-  double prepareSegment(const VectorX& x, const VectorX& dx);
+  /// evaluations that follow, and the largest t that additive CCD finds collision-free
+  /// (obstacles at the end of the substep; only self-contact if `withObstacles` is false).
+  double prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles = true);
   /// kappa B(x) + D(x) (J), +inf if a distance is zero or negative. Adds scale x the gradient to
   /// `gradient`, and scale x the PSD-projected Hessian: into `hessian` where its pattern has the
   /// entries, else to `outside` as triplets. Uses the pairs of the last prepareSegment().
@@ -121,18 +128,20 @@ class ContactModel {
   /// Starts a projection substep over the fraction [f0, f1] of the step.
   void beginProjection(double f0, double f1);
   /// Moves every free vertex closer than dHat to an obstacle (at the end of the substep) out to
-  /// dHat along the obstacle's normal; adds the distance moved to normalPush (per vertex, m) and
-  /// the displacement to correction (per DOF, m). Returns how many vertices it moved.
-  int projectOntoObstacles(VectorX& x, const std::vector<char>& pinned, VectorX& normalPush,
-                           VectorX& correction);
+  /// dHat along the obstacle's normal (a vertex inside: along the normal where its path from
+  /// xStart entered); adds the distance moved to normalPush (per vertex, m) and the displacement
+  /// to correction (per DOF, m). Returns how many vertices it moved.
+  int projectOntoObstacles(VectorX& x, const VectorX& xStart, const std::vector<char>& pinned,
+                           VectorX& normalPush, VectorX& correction);
   /// Coulomb friction on the vertices projected in this substep: their displacement since xStart,
   /// relative to the obstacle's surface, loses its tangential part up to mu x normalPush.
   void applyProjectionFriction(VectorX& x, const VectorX& xStart, const VectorX& normalPush,
                                VectorX& correction);
-  /// After a projection substep of length h: contact force m correction / h^2 on each vertex,
-  /// its work over x - xStart, the obstacles' wrenches and the contact count.
+  /// After a projection substep of length h: contact force massScale m correction / h^2 on each
+  /// vertex (massScale = 1 + h alpha with implicit mass damping alpha, which scales the inertia of
+  /// the update), its work over x - xStart, the obstacles' wrenches and the contact count.
   void finishProjection(const VectorX& x, const VectorX& xStart, const VectorX& correction,
-                        double h, ContactStats& stats);
+                        double h, double massScale, ContactStats& stats);
 
   /// Distance evaluations so far (never reset: callers take differences).
   std::uint64_t checks() const { return checks_; }
@@ -150,8 +159,7 @@ class ContactModel {
   };
   void setSubstepPoses(double f0, double f1);
   bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
-  SignedDistance obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd,
-                                  bool wantHessian);
+  SignedDistance obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd);
   void addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
                 std::vector<Eigen::Triplet<double>>* outside) const;
   double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,

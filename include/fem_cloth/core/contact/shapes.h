@@ -1,5 +1,5 @@
 // Obstacle shapes as exact signed distance functions in their own frame, with the gradient (the
-// outward unit normal), the closest surface point and, when asked, the Hessian of the distance.
+// outward unit normal) and the closest surface point.
 //
 // Shapes (local frame):
 //   plane    the surface z = 0 with outward normal +z; z < 0 is inside (a table top, a floor)
@@ -10,7 +10,9 @@
 // Each distance is exact (not a bound), so it is 1-Lipschitz: a point that moves by s changes its
 // distance by at most s. Conservative advancement (ccd.h) relies on that. Outside a convex shape
 // the distance is convex, so its Hessian is positive semi-definite there; inside it is not needed
-// (contact keeps every vertex outside). Units: metres.
+// (contact keeps every vertex outside), and an exact distance has |grad d| = 1, so the Hessian
+// has the normal in its null space: contact_model.cpp projects barrier Hessians using both facts.
+// Units: metres.
 #pragma once
 
 #include <Eigen/Core>
@@ -36,11 +38,9 @@ struct SignedDistance {
   double distance = 0.0;  ///< m, negative inside
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< unit gradient of the distance
   Eigen::Vector3d closest = Eigen::Vector3d::Zero();  ///< closest point on the surface
-  /// Hessian of the distance (1/m); filled only when asked, zero inside.
-  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
 };
 
 /// Signed distance of the local point p to the shape's surface.
-SignedDistance signedDistance(const Shape& shape, const Eigen::Vector3d& p, bool wantHessian = false);
+SignedDistance signedDistance(const Shape& shape, const Eigen::Vector3d& p);
 
 }  // namespace fem_cloth

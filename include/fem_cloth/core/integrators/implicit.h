@@ -19,6 +19,11 @@
 // rejected by the line search. Pinned DOFs are filtered: their rows and columns are replaced by
 // the identity (scaled by their mass) with zero right-hand side, which keeps the matrix pattern,
 // and so the symbolic factorisation, fixed while pins come and go.
+//
+// Contact (contact/contact_model.h; only when the scene has obstacles or self-collision): Phi
+// gains c^2 (kappa B(x) + D(x)), the barrier and lagged friction potentials of Incremental
+// Potential Contact (Li et al. 2020); each Newton step is first cut to the largest fraction that
+// continuous collision detection finds collision-free, so no iterate passes through anything.
 #pragma once
 
 #include "fem_cloth/core/integrators/integrator.h"
@@ -56,9 +61,10 @@ class ImplicitIntegrator final : public Integrator {
   const LinearSolver* linearSolver() const { return solver_.get(); }
 
  private:
-  /// One implicit substep of size h; on failure returns false with report.error set.
-  bool substep(const StepInput& input, State& state, double h, int remaining, VectorX& pinForce,
-               StepReport& report);
+  /// One implicit substep of size h over the fraction [fractionStart, fractionEnd] of the step;
+  /// on failure returns false with report.error set.
+  bool substep(const StepInput& input, State& state, double h, int remaining,
+               double fractionStart, double fractionEnd, VectorX& pinForce, StepReport& report);
   double potential(const VectorX& x, double elastic) const;
   void potentialGradient(const VectorX& x, const VectorX& elasticGradient, VectorX& out) const;
 
@@ -74,6 +80,9 @@ class ImplicitIntegrator final : public Integrator {
   double sizeScale_ = 0.0;  // rest bounding-box diagonal (m)  // beta K0 values in the model's Hessian pattern
   // Scratch, sized once.
   VectorX x_, g_, gElastic_, dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_;
+  // Contact: Hessian entries outside the model's pattern, and the system that includes them.
+  std::vector<Eigen::Triplet<double>> outsidePattern_;
+  LinearSolver::Matrix contactExtra_, contactSystem_;
 };
 
 }  // namespace fem_cloth

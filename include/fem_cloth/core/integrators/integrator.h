@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -14,6 +15,8 @@
 #include "fem_cloth/core/model.h"
 
 namespace fem_cloth {
+
+class ContactModel;
 
 /// Rayleigh damping: the damping force is -(alpha M + beta K) v, with K the (PSD-projected)
 /// stiffness. alpha (1/s) damps all motion like air drag; beta (s) damps fast elastic
@@ -49,6 +52,9 @@ struct StepInput {
   const std::vector<char>* pinned = nullptr;  ///< per DOF: 1 if pinned
   const VectorX* pinTarget = nullptr;  ///< end-of-step positions of pinned DOFs (m)
   Damping damping;
+  /// Obstacles and self-contact (contact/contact_model.h); null when the scene has neither, and
+  /// then no contact code runs at all.
+  ContactModel* contact = nullptr;
 };
 
 /// What a step did. Counts add up over substeps and retries.
@@ -66,6 +72,11 @@ struct StepReport {
   int xpbdIterations = 0;
   double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
   double dtUsed = 0.0;      ///< the (sub)step size of the last successful attempt (s)
+  int contacts = 0;         ///< contacts at the end of the step (closer than the contact distance)
+  std::uint64_t contactChecks = 0;  ///< distance evaluations for contact; 0 without contact
+  double contactWork = 0.0;  ///< work of the contact and friction forces on the cloth (J)
+  /// Smallest vertex-obstacle or self-contact distance the step ended with (m; inf if none near).
+  double minContactDistance = std::numeric_limits<double>::infinity();
 };
 
 class Integrator {

@@ -9,6 +9,8 @@
 // (what it measures drifts slowly as fast modes fill up; see cflSafety).
 // Mass-proportional damping is treated implicitly (it never limits the step); stiffness-
 // proportional damping is explicit and tightens the bound (see stableStep).
+// Obstacles (when the scene has any): after each substep, vertices closer than the contact
+// distance are projected out to it with Coulomb friction (contact/contact_model.h).
 #pragma once
 
 #include "fem_cloth/core/integrators/integrator.h"
@@ -51,6 +53,7 @@ class SymplecticEuler final : public Integrator {
   std::uint64_t boundAge_ = 0;
   VectorX force_, gradient_, velocityStart_;
   VectorX shifted_, shiftedGradient_, dampingForce_;  // stiffness damping only
+  VectorX positionStart_, normalPush_, correction_;  // contact only
 };
 
 }  // namespace fem_cloth

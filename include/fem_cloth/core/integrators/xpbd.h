@@ -16,6 +16,8 @@
 // divided by 1 + h alpha and the projection uses the masses times 1 + h alpha, so converged XPBD
 // still solves the damped backward Euler equations); stiffness-proportional beta uses XPBD's
 // constraint damping (section 3.5).
+// Obstacles (when the scene has any) are inequality constraints projected after every sweep,
+// with Coulomb friction at the end of each substep (contact/contact_model.h).
 #pragma once
 
 #include "fem_cloth/core/integrators/integrator.h"
@@ -43,6 +45,7 @@ class Xpbd final : public Integrator {
 
   XpbdSettings settings_;
   VectorX xStart_, vStart_, inverseMass_;
+  VectorX normalPush_, correction_;  // contact only
   const Model* stiffnessModel_ = nullptr;
   std::vector<std::vector<double>> stiffness_;  // per term: K_e, row-major, per element
   std::vector<std::vector<double>> lambda_;     // per term: multipliers, per element
