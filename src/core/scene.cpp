@@ -48,7 +48,7 @@ Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
 
 const std::vector<std::string>& integratorNames() {
   static const std::vector<std::string> names = {"symplectic_euler", "backward_euler", "bdf2",
-                                                 "xpbd"};
+                                                 "xpbd", "projective_dynamics"};
   return names;
 }
 
@@ -89,7 +89,7 @@ Status validateScene(const Scene& s) {
   if (std::find(integratorNames().begin(), integratorNames().end(), s.integrator) ==
       integratorNames().end()) {
     return Error{"integrator.name: unknown integrator '" + s.integrator +
-                 "' (known: symplectic_euler, backward_euler, bdf2, xpbd)"};
+                 "' (known: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics)"};
   }
   FEM_CLOTH_CHECK(positiveFinite(s.dt, "integrator.dt", "s"));
   if (s.substeps < 1) return Error{"integrator.substeps must be at least 1, got " + std::to_string(s.substeps)};
@@ -101,7 +101,10 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(positiveFinite(s.newton.tolerance, "integrator.newton_tolerance", "relative"));
   if (s.newton.maxBacktracks < 0) return Error{"integrator.max_backtracks must be >= 0"};
   FEM_CLOTH_CHECK(positiveFinite(s.newton.linear.cgTolerance, "integrator.cg_tolerance", "relative"));
-  if (s.xpbdIterations < 1) return Error{"integrator.iterations must be at least 1"};
+  if (s.iterations < 1) return Error{"integrator.iterations must be at least 1"};
+  if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
+    return Error{"integrator.chebyshev_rho must be in [0, 1), got " + str(s.chebyshevRho)};
+  }
   for (std::size_t i = 0; i < s.pins.size(); ++i) {
     const std::string key = "pins[" + std::to_string(i) + "]";
     const ScenePin& p = s.pins[i];
@@ -248,9 +251,15 @@ std::unique_ptr<Integrator> makeIntegrator(const Scene& s) {
     settings.cflSafety = s.cflSafety;
     return std::make_unique<SymplecticEuler>(settings);
   }
+  if (s.integrator == "projective_dynamics") {
+    ProjectiveDynamicsSettings settings;
+    settings.iterations = s.iterations;
+    settings.chebyshevRho = s.chebyshevRho;
+    return std::make_unique<ProjectiveDynamics>(settings);
+  }
   if (s.integrator == "xpbd") {
     XpbdSettings settings;
-    settings.iterations = s.xpbdIterations;
+    settings.iterations = s.iterations;
     return std::make_unique<Xpbd>(settings);
   }
   return std::make_unique<ImplicitIntegrator>(

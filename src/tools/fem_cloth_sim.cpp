@@ -319,7 +319,9 @@ int main(int argc, char** argv) {
           << simulator.model().numVertices() << " vertices, " << simulator.model().mesh().numTriangles()
           << " triangles, model " << scene->materialModel << '\n';
   summary << "integrator:   " << simulator.integrator().name() << ", dt " << dt << " s";
-  if (scene->integrator == "xpbd") summary << ", " << scene->xpbdIterations << " iterations";
+  if (scene->integrator == "xpbd" || scene->integrator == "projective_dynamics") {
+    summary << ", " << scene->iterations << " iterations";
+  }
   summary << '\n';
   summary << "steps:        " << totals.steps << " of " << totalSteps << " (" << totals.substeps
           << " substeps), simulated " << simulator.time() << " s in " << wall << " s wall"
