@@ -72,12 +72,88 @@ bool ProjectiveDynamics::prepare(const StepInput& input, double h, std::string* 
     return false;
   }
   ++factorisations_;
+  // Keep the factor L (column-major, diagonal first in each column) and the fill-reducing
+  // permutation (P A P^T = L L^T) for solveAllCoordinates.
+  const Matrix& L = solver_.matrixL().nestedExpression();
+  factorOuter_.assign(L.outerIndexPtr(), L.outerIndexPtr() + L.outerSize() + 1);
+  factorInner_.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
+  factorValues_.assign(L.valuePtr(), L.valuePtr() + L.nonZeros());
+  permutation_.assign(solver_.permutationP().indices().data(),
+                      solver_.permutationP().indices().data() + nf);
+  work_.resize(nf, d - 1);
+  tailWork_.resize(nf);
   factorisedFor_ = pinnedVertices_;
   factorisedH_ = h;
   rhsFree_.resize(nf, d);
   solFree_.resize(nf, d);
   pinnedPositions_.resize(numPinned, d);
   return true;
+}
+
+namespace {
+
+// Forward (L y = b) and backward (L^T z = y) substitution on D interleaved right-hand sides,
+// y[D*i + c]; column j of the CSC factor L starts with its diagonal. D is a template parameter
+// so that the inner loops over coordinates unroll.
+template <int D>
+void substitute(Index n, const int* outer, const int* inner, const double* value, double* y) {
+  for (Index j = 0; j < n; ++j) {
+    double* yj = y + D * j;
+    const double inv = 1.0 / value[outer[j]];
+    for (int c = 0; c < D; ++c) yj[c] *= inv;
+    for (int k = outer[j] + 1; k < outer[j + 1]; ++k) {
+      double* yi = y + D * inner[k];
+      const double l = value[k];
+      for (int c = 0; c < D; ++c) yi[c] -= l * yj[c];
+    }
+  }
+  for (Index j = n - 1; j >= 0; --j) {
+    double* yj = y + D * j;
+    double acc[D];
+    for (int c = 0; c < D; ++c) acc[c] = yj[c];
+    for (int k = outer[j] + 1; k < outer[j + 1]; ++k) {
+      const double* yi = y + D * inner[k];
+      const double l = value[k];
+      for (int c = 0; c < D; ++c) acc[c] -= l * yi[c];
+    }
+    const double inv = 1.0 / value[outer[j]];
+    for (int c = 0; c < D; ++c) yj[c] = acc[c] * inv;
+  }
+}
+
+}  // namespace
+
+void ProjectiveDynamics::solveAllCoordinates() {
+  const Index nf = static_cast<Index>(permutation_.size());
+  const int d = static_cast<int>(rhsFree_.cols());
+  const int* outer = factorOuter_.data();
+  const int* inner = factorInner_.data();
+  const double* value = factorValues_.data();
+  // Two independent solves, on two threads for large systems: the first d - 1 coordinates
+  // interleaved, the last alone. Each is the same arithmetic whatever the number of threads.
+  double* head = work_.data();   // nf x (d - 1), row-major
+  double* tail = tailWork_.data();  // nf
+  for (Index i = 0; i < nf; ++i) {
+    for (int c = 0; c + 1 < d; ++c) head[(d - 1) * permutation_[i] + c] = rhsFree_(i, c);
+    tail[permutation_[i]] = rhsFree_(i, d - 1);
+  }
+#pragma omp parallel sections if (nf >= kParallelElementThreshold)
+  {
+#pragma omp section
+    {
+      if (d == 3) {
+        substitute<2>(nf, outer, inner, value, head);
+      } else {
+        substitute<1>(nf, outer, inner, value, head);
+      }
+    }
+#pragma omp section
+    substitute<1>(nf, outer, inner, value, tail);
+  }
+  for (Index i = 0; i < nf; ++i) {
+    for (int c = 0; c + 1 < d; ++c) solFree_(i, c) = head[(d - 1) * permutation_[i] + c];
+    solFree_(i, d - 1) = tail[permutation_[i]];
+  }
 }
 
 StepReport ProjectiveDynamics::step(const StepInput& input, State& state, double dt,
@@ -140,7 +216,7 @@ StepReport ProjectiveDynamics::step(const StepInput& input, State& state, double
         }
       }
       rhsFree_.noalias() -= couplingFreePinned_ * pinnedPositions_;
-      solFree_ = solver_.solve(rhsFree_);
+      solveAllCoordinates();
       if (rho > 0.0) {
         // Chebyshev semi-iteration (Wang 2015, eq. 6): blend with the iterate before last.
         omega = it == 0 ? 1.0 : (it == 1 ? 2.0 / (2.0 - rho * rho) : 4.0 / (4.0 - rho * rho * omega));

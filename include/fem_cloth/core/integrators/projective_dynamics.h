@@ -59,9 +59,18 @@ class ProjectiveDynamics final : public Integrator {
   Matrix systemFree_;              // A restricted to free vertices
   Matrix couplingFreePinned_;      // A(free, pinned): moves pinned targets to the right side
   Eigen::SimplicialLLT<Matrix, Eigen::Lower, Eigen::AMDOrdering<int>> solver_;
+  /// Solves A X = B for the d columns of B (B, X: free vertices x d, row-major) with the factor
+  /// of solver_: coordinates interleaved, so a pass over the factor serves several of them (the
+  /// solve is memory bound), and split over two threads on large meshes.
+  void solveAllCoordinates();
+  std::vector<int> factorOuter_, factorInner_, permutation_;
+  std::vector<double> factorValues_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> work_;
+  VectorX tailWork_;
   // Scratch (sized once).
   VectorX xhat_, rhs_, xPrev_, xPrevPrev_;
-  Eigen::MatrixXd rhsFree_, solFree_, pinnedPositions_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rhsFree_, solFree_;
+  Eigen::MatrixXd pinnedPositions_;
 };
 
 }  // namespace fem_cloth
