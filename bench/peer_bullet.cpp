@@ -24,6 +24,7 @@
 
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
+#include "fem_cloth/core/threads.h"
 
 namespace {
 
@@ -118,6 +119,7 @@ void print(const Result& r, double duration) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  fem_cloth::preferPassiveThreadWaiting(argv);
   int resolution = 65, maxIterations = 160;
   double duration = 2.0;
   for (int i = 1; i + 1 < argc; i += 2) {

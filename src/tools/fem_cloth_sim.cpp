@@ -24,6 +24,7 @@
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
+#include "fem_cloth/core/threads.h"
 
 using namespace fem_cloth;
 
@@ -162,6 +163,7 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  fem_cloth::preferPassiveThreadWaiting(argv);
   Options opt;
   CLI::App app{
       "Runs a fem_cloth scene headless (no ROS master needed) and prints a summary.\n"
