@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Turns fem_cloth_bench's JSON into the tables and the scaling plot of docs/performance.md.
 
-    bench_report.py bench.json --out DIR [--peer peer.txt]
+    bench_report.py bench.json --out DIR [--peer peer.txt] [--node node.txt]
 
 Prints (and writes DIR/performance.md):
   - the step table: ms per step, steps per second, real-time factor (dt / wall time per step),
@@ -44,6 +44,7 @@ def main():
     parser.add_argument("json")
     parser.add_argument("--out", default=".")
     parser.add_argument("--peer", help="output of fem_cloth_peer_bullet, included verbatim")
+    parser.add_argument("--node", help="output of bench_node.py, included verbatim")
     args = parser.parse_args()
     context, runs = load(args.json)
     os.makedirs(args.out, exist_ok=True)
@@ -89,7 +90,8 @@ def main():
     for b in runs:
         if b["name"].startswith(("Kernel", "Assembly")):
             t = ms(b)
-            say(f"| {b['name']} | {t * 1e6:.0f} ns |" if t < 1e-3 else f"| {b['name']} | {t:.3f} ms |")
+            shown = f"{t * 1e6:.0f} ns" if t < 1e-2 else f"{t * 1e3:.1f} µs" if t < 1 else f"{t:.3f} ms"
+            say(f"| {b['name']} | {shown} |")
     for b in runs:
         if b["name"].startswith("HangingCloth65"):
             say()
@@ -102,6 +104,15 @@ def main():
         say()
         say("```")
         with open(args.peer) as f:
+            for line in f.read().rstrip().split("\n"):
+                say(line)
+        say("```")
+    if args.node and os.path.exists(args.node):
+        say()
+        say("The node at 60 Hz (scripts/bench_node.py):")
+        say()
+        say("```")
+        with open(args.node) as f:
             for line in f.read().rstrip().split("\n"):
                 say(line)
         say("```")

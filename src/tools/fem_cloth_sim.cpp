@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
                  "scene YAML file (see docs/scenes.md); with --commands, replaces the scene "
                  "stored in the bag");
   app.add_option("--integrator", opt.integrator,
-                 "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd");
+                 "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics");
   app.add_option("--dt", opt.dt, "override integrator.dt (s)");
   app.add_option("--duration", opt.duration, "override the scene's duration (s)");
   app.add_option("--set", opt.overrides, "override any scene key: key.path=value (repeatable)");
