@@ -91,6 +91,27 @@ Status validateScene(const Scene& s) {
     return Error{"integrator.name: unknown integrator '" + s.integrator +
                  "' (known: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics)"};
   }
+  if (s.integrator == "projective_dynamics") {
+    // Projective dynamics needs every energy term in the form w/2 |A x - p(x)|^2 with a constant
+    // A (Bouaziz et al. 2014, sec. 3); here that is the ARAP membrane and quadratic bending on
+    // cloth. Say so when the scene is loaded rather than at the first step.
+    if (s.materialModel != "arap") {
+      return Error{"material.model: projective_dynamics simulates the arap membrane only, got '" +
+                   s.materialModel + "' (use material.model: arap, or another integrator)"};
+    }
+    const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
+    if (dim != 3) {
+      return Error{"mesh.dim: projective_dynamics simulates cloth (dim 3) only"};
+    }
+    if (s.bendingStiffness > 0.0 && s.bendingModel != "quadratic") {
+      return Error{"bending.model: projective_dynamics needs the quadratic bending model, got '" +
+                   s.bendingModel + "'"};
+    }
+    if (s.damping.stiffnessProportional > 0.0) {
+      return Error{"damping.stiffness: projective_dynamics has no stiffness damping; set it to 0 "
+                   "and use damping.mass"};
+    }
+  }
   FEM_CLOTH_CHECK(positiveFinite(s.dt, "integrator.dt", "s"));
   if (s.substeps < 1) return Error{"integrator.substeps must be at least 1, got " + std::to_string(s.substeps)};
   if (s.maxRetries < 0) return Error{"integrator.max_retries must be >= 0"};
