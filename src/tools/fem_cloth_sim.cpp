@@ -48,6 +48,7 @@ struct Options {
 struct Totals {
   std::uint64_t steps = 0;
   std::uint64_t newtonIterations = 0;
+  std::uint64_t localIterations = 0;  // XPBD sweeps, projective dynamics iterations
   std::uint64_t backtracks = 0;
   std::uint64_t rollbacks = 0;
   std::uint64_t substeps = 0;
@@ -300,6 +301,7 @@ int main(int argc, char** argv) {
     }
     ++totals.steps;
     totals.newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
+    totals.localIterations += static_cast<std::uint64_t>(r.iterations);
     totals.backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
     totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
     totals.substeps += static_cast<std::uint64_t>(r.substeps);
@@ -339,11 +341,24 @@ int main(int argc, char** argv) {
   summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
           << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
   summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
-  summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
-          << (totals.steps ? static_cast<double>(totals.newtonIterations) / totals.steps : 0.0)
-          << " per step), max residual " << totals.maxResidual << " N, " << totals.backtracks
-          << " line-search backtracks, " << totals.rollbacks << " rollbacks, " << totals.failures
-          << " failures\n";
+  auto perStep = [&](std::uint64_t count) {
+    return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
+  };
+  if (scene->integrator == "xpbd" || scene->integrator == "projective_dynamics") {
+    // Their iterations are local sweeps (XPBD) or local/global iterations (PD), not Newton's.
+    summary << "solver:       " << totals.localIterations << " "
+            << (scene->integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
+            << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
+            << " substeps, " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else if (scene->integrator == "symplectic_euler") {
+    summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
+            << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else {
+    summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
+            << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
+            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks
+            << " rollbacks, " << totals.failures << " failures\n";
+  }
   if (!opt.noOutput) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
   if (!failure.empty()) {
