@@ -278,7 +278,7 @@ StepReport Simulator::step(double dt) {
     total.substeps = r.substeps;
     total.newtonIterations += r.newtonIterations;
     total.lineSearchBacktracks += r.lineSearchBacktracks;
-    total.xpbdIterations += r.xpbdIterations;
+    total.iterations += r.iterations;
     total.residual = r.residual;
     total.dtUsed = r.dtUsed;
     total.contactChecks += r.contactChecks;

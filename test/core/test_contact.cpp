@@ -286,7 +286,16 @@ TEST_P(Contact, MovingObstaclePushesTheClothWithoutPassingThrough) {
             << pushed << " m\n";
 }
 
-INSTANTIATE_TEST_SUITE_P(AllIntegrators, Contact, ::testing::ValuesIn(allIntegrators()),
+// Projective dynamics refuses obstacles at scene load (ContactScope below).
+std::vector<std::string> contactIntegrators() {
+  std::vector<std::string> names;
+  for (const std::string& n : allIntegrators()) {
+    if (n != "projective_dynamics") names.push_back(n);
+  }
+  return names;
+}
+
+INSTANTIATE_TEST_SUITE_P(AllIntegrators, Contact, ::testing::ValuesIn(contactIntegrators()),
                          [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
 
 // The fold scene (config/fold.yaml, coarser): one half lifted by its pinned edge, laid over the
@@ -360,4 +369,23 @@ TEST_P(Contact, SceneWithoutContactDoesNoContactWork) {
   }
   std::cout << GetParam() << ": no contact: 0 checks; a floor 100 m below: " << checks
             << " checks in 20 steps, positions differ by " << difference << " m\n";
+}
+
+// Projective dynamics does not handle contact, and self-collision is for the implicit steppers
+// only: such scenes are refused when they are loaded, with a message that names the key.
+TEST(ContactScope, UnsupportedIntegratorsAreRefusedNamingTheKey) {
+  Scene pd = gridScene(3, 4, 0.1, "projective_dynamics", 1000.0);
+  ASSERT_TRUE(validateScene(pd).ok()) << validateScene(pd).error();
+  pd.obstacles = {floorPlane(-0.1, 0.3)};
+  const Status refused = validateScene(pd);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("obstacles"), std::string::npos) << refused.error();
+  EXPECT_NE(refused.error().find("projective_dynamics"), std::string::npos) << refused.error();
+  for (const std::string integrator : {"symplectic_euler", "xpbd", "projective_dynamics"}) {
+    Scene self = gridScene(3, 4, 0.1, integrator, 1000.0);
+    self.contact.selfCollision = true;
+    const Status s = validateScene(self);
+    ASSERT_FALSE(s.ok()) << integrator;
+    EXPECT_NE(s.error().find("contact.self_collision"), std::string::npos) << s.error();
+  }
 }

@@ -164,7 +164,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
       // Obstacles as hard inequality constraints, projected after each sweep.
       if (contact != nullptr) contact->projectOntoObstacles(state.x, xStart_, pinned, normalPush_, correction_);
     }
-    report.xpbdIterations += settings_.iterations;
+    report.iterations += settings_.iterations;
     if (contact != nullptr) {
       // Coulomb friction bounded by the substep's total normal correction (Macklin, Mueller,
       // Chentanez & Kim, "Unified Particle Physics for Real-Time Applications", 2014, section 6.1).
