@@ -1,6 +1,7 @@
 #include "fem_cloth/ros/cloth_node.h"
 
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <ros/names.h>
 #include <ros/package.h>
 #include <std_msgs/String.h>
 #include <rosgraph_msgs/Clock.h>
@@ -188,6 +189,21 @@ bool ClothNode::start(std::string* error) {
   markerPub_ = private_.advertise<visualization_msgs::Marker>("marker", 2);
   pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
   pinWrenchPub_ = private_.advertise<geometry_msgs::WrenchStamped>("pin_wrench", 10);
+  // Obstacles (only when the scene has some: a scene pays for what it declares).
+  const std::vector<std::string> obstacles = driver_->obstacleNames();
+  if (!obstacles.empty()) {
+    obstacleMarkerPub_ = private_.advertise<visualization_msgs::MarkerArray>("obstacle_markers", 2, true);
+  }
+  for (const std::string& name : obstacles) {
+    std::string why;
+    if (!ros::names::validate(name, why) || name.find('/') != std::string::npos) {
+      *error = "obstacle '" + name + "': its name must be a valid ROS name without '/' (it names "
+               "the topic ~obstacles/<name>/wrench)";
+      return false;
+    }
+    obstacleWrenchPubs_.push_back(
+        private_.advertise<geometry_msgs::WrenchStamped>("obstacles/" + name + "/wrench", 10));
+  }
   diagnosticsPub_ = node_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
   scenePub_ = private_.advertise<std_msgs::String>("scene", 1, true);
   appliedPinPub_ = private_.advertise<PinCommand>("applied_pin", 100);
@@ -360,9 +376,20 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
     if (wanted(pinWrenchPub_)) {
       for (const auto& w : driver_->pinWrenchMessages()) pinWrenchPub_.publish(w);
     }
+    bool wrenchWanted = false;
+    for (const ros::Publisher& pub : obstacleWrenchPubs_) wrenchWanted = wrenchWanted || wanted(pub);
+    if (wrenchWanted) {
+      const std::vector<geometry_msgs::WrenchStamped> wrenches = driver_->obstacleWrenchMessages();
+      for (std::size_t k = 0; k < wrenches.size() && k < obstacleWrenchPubs_.size(); ++k) {
+        obstacleWrenchPubs_[k].publish(wrenches[k]);
+      }
+    }
   }
   if ((force || step % markerEvery_ == 0) && wanted(markerPub_)) {
     markerPub_.publish(driver_->markerMessage());
+  }
+  if ((force || step % markerEvery_ == 0) && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
+    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
   }
   publishDiagnostics(false);
 }

@@ -221,6 +221,12 @@ bool SimulationDriver::transformsReady(std::string* missing) const {
   for (const auto& [vertex, follow] : follow_) {
     if (!check(follow.frame, t + dt)) return false;
   }
+  if (const ContactModel* contact = simulator().contact()) {
+    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
+      const std::string& frame = contact->obstacle(k).frame;
+      if (!frame.empty() && !check(frame, t + dt)) return false;
+    }
+  }
   return true;
 }
 
@@ -402,7 +408,37 @@ StepReport SimulationDriver::step() {
   }
   if (Status s = simulation_.script.applyDue(sim); !s) warnings_.push_back(s.error());
   followFrames(t + dt);
+  followObstacleFrames(t, t + dt);
   return sim.step();
+}
+
+void SimulationDriver::followObstacleFrames(double time, double endTime) {
+  ContactModel* contact = simulator().contact();
+  if (contact == nullptr) return;
+  for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
+    const Obstacle& o = contact->obstacle(k);
+    if (o.frame.empty()) continue;
+    std::string why, inexact;
+    auto pose = [&](double when) { return transform(o.frame, stampOf(when), &why, &inexact); };
+    auto last = obstacleFrame_.find(k);
+    // The start of this step is the end of the last; the first step starts where the frame is.
+    std::optional<Eigen::Isometry3d> start;
+    if (last != obstacleFrame_.end()) start = last->second;
+    else start = pose(time);
+    std::optional<Eigen::Isometry3d> end = pose(endTime);
+    if (!start) {
+      warnings_.push_back("obstacle '" + o.name + "' is not placed yet: " + why);
+      continue;
+    }
+    if (!end) {
+      warnings_.push_back("obstacle '" + o.name + "' stays where it is: " + why);
+      end = start;
+    } else if (!inexact.empty()) {
+      warnings_.push_back("obstacle '" + o.name + "': " + inexact + " (a replay of this run may differ)");
+    }
+    contact->setFramePose(k, *start, *end);
+    obstacleFrame_[k] = *end;
+  }
 }
 
 void SimulationDriver::reset() {
@@ -410,6 +446,7 @@ void SimulationDriver::reset() {
   simulation_.script.rewind();
   pending_.clear();
   follow_.clear();
+  obstacleFrame_.clear();
   appliedPins_.clear();
   appliedForces_.clear();
 }
@@ -514,7 +551,7 @@ StepStats SimulationDriver::statsMessage(const StepReport& r, double wallTime,
   msg.rollbacks = static_cast<std::uint32_t>(r.rollbacks);
   msg.min_area_ratio = minAreaRatio(simulator().model().mesh(), simulator().model().rest(),
                                     simulator().state().x);
-  msg.contacts = 0;
+  msg.contacts = static_cast<std::uint32_t>(std::max(r.contacts, 0));
   return msg;
 }
 
@@ -602,6 +639,111 @@ std::vector<geometry_msgs::WrenchStamped> SimulationDriver::pinWrenchMessages() 
     w.wrench.torque.y = tau.y();
     w.wrench.torque.z = tau.z();
     out.push_back(w);
+  }
+  return out;
+}
+
+std::vector<std::string> SimulationDriver::obstacleNames() const {
+  std::vector<std::string> names;
+  if (const ContactModel* contact = simulator().contact()) {
+    for (std::size_t k = 0; k < contact->numObstacles(); ++k) names.push_back(contact->obstacle(k).name);
+  }
+  return names;
+}
+
+namespace {
+
+geometry_msgs::Pose poseMessage(const Eigen::Isometry3d& T) {
+  geometry_msgs::Pose p;
+  const Eigen::Quaterniond q(T.linear());
+  p.position.x = T.translation().x();
+  p.position.y = T.translation().y();
+  p.position.z = T.translation().z();
+  p.orientation.x = q.x();
+  p.orientation.y = q.y();
+  p.orientation.z = q.z();
+  p.orientation.w = q.w();
+  return p;
+}
+
+// Side (m) of the square slab that stands for an infinite plane in RViz, and its thickness.
+constexpr double kPlaneMarkerSide = 4.0, kPlaneMarkerThickness = 0.002;
+
+}  // namespace
+
+visualization_msgs::MarkerArray SimulationDriver::obstacleMarkers() const {
+  visualization_msgs::MarkerArray array;
+  const ContactModel* contact = simulator().contact();
+  if (contact == nullptr) return array;
+  for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
+    const Shape& shape = contact->obstacle(k).shape;
+    const Eigen::Isometry3d pose = contact->shapePose(k);
+    visualization_msgs::Marker m;
+    m.header.stamp = now();
+    m.header.frame_id = settings_.frame;
+    m.ns = "obstacles";
+    m.id = static_cast<int>(3 * k);
+    m.action = visualization_msgs::Marker::ADD;
+    m.color.r = m.color.g = m.color.b = 0.6f;
+    m.color.a = 0.8f;
+    m.pose = poseMessage(pose);
+    switch (shape.type) {
+      case ShapeType::Plane:
+        // The slab's top face is the plane (its own z = 0, normal +z).
+        m.type = visualization_msgs::Marker::CUBE;
+        m.pose = poseMessage(pose * Eigen::Translation3d(0.0, 0.0, -0.5 * kPlaneMarkerThickness));
+        m.scale.x = m.scale.y = kPlaneMarkerSide;
+        m.scale.z = kPlaneMarkerThickness;
+        break;
+      case ShapeType::Box:
+        m.type = visualization_msgs::Marker::CUBE;
+        m.scale.x = 2.0 * shape.halfExtents.x();
+        m.scale.y = 2.0 * shape.halfExtents.y();
+        m.scale.z = 2.0 * shape.halfExtents.z();
+        break;
+      case ShapeType::Sphere:
+        m.type = visualization_msgs::Marker::SPHERE;
+        m.scale.x = m.scale.y = m.scale.z = 2.0 * shape.radius;
+        break;
+      case ShapeType::Capsule:
+        m.type = visualization_msgs::Marker::CYLINDER;
+        m.scale.x = m.scale.y = 2.0 * shape.radius;
+        m.scale.z = 2.0 * shape.halfLength;
+        for (int end = 0; end < 2; ++end) {
+          visualization_msgs::Marker cap = m;
+          cap.id = static_cast<int>(3 * k) + 1 + end;
+          cap.type = visualization_msgs::Marker::SPHERE;
+          cap.scale.z = 2.0 * shape.radius;
+          cap.pose = poseMessage(pose * Eigen::Translation3d(0.0, 0.0, end == 0 ? -shape.halfLength
+                                                                                : shape.halfLength));
+          array.markers.push_back(cap);
+        }
+        break;
+    }
+    array.markers.push_back(m);
+  }
+  return array;
+}
+
+std::vector<geometry_msgs::WrenchStamped> SimulationDriver::obstacleWrenchMessages() const {
+  std::vector<geometry_msgs::WrenchStamped> out;
+  const ContactModel* contact = simulator().contact();
+  if (contact == nullptr) return out;
+  for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
+    const ObstacleWrench& w = contact->wrenches()[k];
+    // The model gives the torque about the simulation frame's origin; move it to the shape's.
+    const Eigen::Vector3d origin = contact->shapePose(k).translation();
+    const Eigen::Vector3d torque = w.torque - origin.cross(w.force);
+    geometry_msgs::WrenchStamped msg;
+    msg.header.stamp = now();
+    msg.header.frame_id = settings_.frame;
+    msg.wrench.force.x = w.force.x();
+    msg.wrench.force.y = w.force.y();
+    msg.wrench.force.z = w.force.z();
+    msg.wrench.torque.x = torque.x();
+    msg.wrench.torque.y = torque.y();
+    msg.wrench.torque.z = torque.z();
+    out.push_back(msg);
   }
   return out;
 }

@@ -109,7 +109,9 @@ class ClothNode {
 
   ros::Subscriber pinSub_, forceSub_;
   ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, markerPub_, pinForcesPub_,
-      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_;
+      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_,
+      obstacleMarkerPub_;
+  std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order
   std::string sceneText_;
   ros::ServiceServer resetSrv_, pauseSrv_, resumeSrv_, stepSrv_, advanceSrv_;
 };

@@ -14,6 +14,7 @@
 #include <shape_msgs/Mesh.h>
 #include <tf2/buffer_core.h>
 #include <visualization_msgs/Marker.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <deque>
 #include <map>
@@ -99,6 +100,15 @@ class SimulationDriver {
   /// One wrench per grasp frame (the sum over the pins that follow it, expressed in that frame,
   /// torque about its origin) and one in the simulation frame for pins fixed there.
   std::vector<geometry_msgs::WrenchStamped> pinWrenchMessages() const;
+  /// The scene's obstacles as RViz markers at their current poses (empty without obstacles): a
+  /// plane as a thin square slab of side kPlaneMarkerSide whose top is the plane, a box, a
+  /// sphere, a capsule as a cylinder and two spheres; namespace "obstacles", ids 3k to 3k+2.
+  visualization_msgs::MarkerArray obstacleMarkers() const;
+  /// Per obstacle (in scene order): the force the cloth exerts on it in the simulation frame,
+  /// torque about the origin of its shape (a sphere's or box's centre, a plane's point).
+  std::vector<geometry_msgs::WrenchStamped> obstacleWrenchMessages() const;
+  /// Names of the obstacles (scene order), as they appear in topic names.
+  std::vector<std::string> obstacleNames() const;
 
  private:
   struct Pending {
@@ -125,6 +135,8 @@ class SimulationDriver {
   Status apply(const PinCommand& command);
   Status apply(const ForceCommand& command);
   void followFrames(double endTime);
+  /// Poses of the frames obstacles follow at the start and end of the step from `time`.
+  void followObstacleFrames(double time, double endTime);
 
   Simulation simulation_;
   Scene scene_;
@@ -133,6 +145,7 @@ class SimulationDriver {
   std::deque<Pending> pending_;
   std::uint64_t arrivals_ = 0;
   std::map<Index, Follow> follow_;
+  std::map<std::size_t, Eigen::Isometry3d> obstacleFrame_;  // last known pose of a followed frame
   std::vector<std::string> warnings_;
   std::vector<PinCommand> appliedPins_;
   std::vector<ForceCommand> appliedForces_;
