@@ -334,6 +334,19 @@ int main(int argc, char** argv) {
           << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
   summary << "work (J):     external " << e.externalWork << ", pins " << e.pinWork
           << ", dissipated by damping " << e.dissipated << '\n';
+  if (const ContactModel* contact = simulator.contact()) {
+    // What each obstacle carries at the end (N, in the simulation frame): a table under a
+    // resting cloth carries its weight.
+    const StepReport& last = simulator.lastReport();
+    summary << "contact:      " << last.contacts << " contacts at the end, closest "
+            << last.minContactDistance << " m, work " << e.contactWork << " J";
+    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
+      const Eigen::Vector3d f = contact->wrenches()[k].force;
+      summary << "; '" << contact->obstacle(k).name << "' feels [" << f.x() << ", " << f.y() << ", "
+              << f.z() << "] N";
+    }
+    summary << '\n';
+  }
   const double energyScale =
       std::max({std::abs(initialEnergy.total), std::abs(e.gravity), std::abs(e.total), 1e-12});
   summary << "balance:      error " << e.balanceError << " J (" << 100.0 * e.balanceError / energyScale
