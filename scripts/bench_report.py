@@ -43,6 +43,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("json")
     parser.add_argument("--out", default=".")
+    parser.add_argument("--one-thread", help="the same benchmarks run with OMP_NUM_THREADS=1 (JSON)")
     parser.add_argument("--peer", help="output of fem_cloth_peer_bullet, included verbatim")
     parser.add_argument("--node", help="output of bench_node.py, included verbatim")
     args = parser.parse_args()
@@ -98,6 +99,18 @@ def main():
             say(f"HangingCloth65 (config/hanging_cloth_fast.yaml, 2 s simulated): {ms(b) / 1e3:.3f} s wall, "
                 f"real-time factor {b['simulated_s'] / (ms(b) / 1e3):.2f}, mean stretch "
                 f"{100 * b['mean_stretch']:.3f} %, max {100 * b['max_stretch']:.2f} %")
+    if args.one_thread and os.path.exists(args.one_thread):
+        _, single = load(args.one_thread)
+        both = {b["name"]: b for b in runs}
+        say()
+        say("Two threads against one (OMP_NUM_THREADS=1, same binary; results are bit-identical):")
+        say()
+        say("| benchmark | 1 thread | 2 threads | speed-up |")
+        say("| --- | --- | --- | --- |")
+        for b in single:
+            if b["name"] in both and "error_occurred" not in b:
+                one, two = ms(b), ms(both[b["name"]])
+                say(f"| {b['name'].split('/min_time')[0]} | {one:.2f} ms | {two:.2f} ms | {one / two:.2f} |")
     if args.peer and os.path.exists(args.peer):
         say()
         say("Side by side with Bullet (fem_cloth_peer_bullet):")
