@@ -115,14 +115,17 @@ def all_dts(rows):
     return sorted({float(r["dt"]) for r in rows if r["status"] == "ok"}, reverse=True)
 
 
-def dt_legend(dts_by_scene):
-    """One marker per position in the (coarse to fine) dt list, naming the steps it stands for."""
-    handles = []
-    for i in range(max(len(d) for d in dts_by_scene)):
-        names = list(OrderedDict.fromkeys(dt_label(d[i]) for d in dts_by_scene if i < len(d)))
-        handles.append(Line2D([], [], color="black", marker=DT_MARKERS[i % len(DT_MARKERS)],
-                              linestyle="", label="dt " + " or ".join(names)))
-    return handles
+def dt_legend(count):
+    """One marker per position in each panel's (coarse to fine) dt list; the panel titles list
+    the steps."""
+    names = ["coarsest dt"] + [f"dt no. {i + 1}" for i in range(1, count)]
+    names[-1] = "finest dt" if count > 1 else names[-1]
+    return [Line2D([], [], color="black", marker=DT_MARKERS[i % len(DT_MARKERS)], linestyle="",
+                   label=names[i]) for i in range(count)]
+
+
+def dts_title(scene, dts):
+    return f"{scene} (dt {', '.join(dt_label(d).replace(' s', '') for d in dts)} s)"
 
 
 def label_axes(ax, xlabel, ylabel, title, logx=True):
@@ -178,9 +181,9 @@ def plot_work_precision(rows, refs, path):
                 ax.annotate("reference check", (0.01, float(ref["check_rms_over_time"])),
                             xycoords=("axes fraction", "data"), fontsize=7, color="grey", va="bottom")
         label_axes(ax, "wall time (s, median of repeats)", "RMS position error over time / cloth size",
-                   scene)
+                   dts_title(scene, dts))
     finish(fig, axes, "Work precision: error against wall time (lower left is better)", path,
-           dt_legend(dts_by_scene))
+           dt_legend(max(len(d) for d in dts_by_scene)))
     return True
 
 
@@ -211,31 +214,40 @@ def plot_convergence(rows, path):
 
 
 def plot_error_over_time(rows, series, path):
+    """The default setting of each integrator (its first label) at the second coarsest dt of
+    each scene, and the reference against itself at twice its step."""
     if not series:
         return False
     style = styles(rows)
+    first = OrderedDict()
+    for r in rows:
+        first.setdefault(r["integrator"], r["label"])
+    shown = set(first.values())
     scenes = list(OrderedDict.fromkeys(s["scene"] for s in series))
     fig, axes = subplot_grid(len(scenes))
     for ax, scene in zip(axes, scenes):
-        # The second coarsest dt of the scene: large enough to show each method's character.
         dts = all_dts([r for r in rows if r["scene"] == scene])
         if not dts:
             continue
         dt = dts[1] if len(dts) > 1 else dts[0]
         curves = OrderedDict()
         for s in series:
-            if s["scene"] == scene and abs(float(s["dt"]) - dt) <= 1e-12 * dt:
+            if s["scene"] != scene or float(s["t"]) <= 0.0:
+                continue
+            if s["label"] == "reference check" or (s["label"] in shown and
+                                                   abs(float(s["dt"]) - dt) <= 1e-12 * dt):
                 curves.setdefault(s["label"], ([], []))
                 curves[s["label"]][0].append(float(s["t"]))
                 curves[s["label"]][1].append(max(float(s["rms"]), 1e-16))
         for label, (t, e) in curves.items():
-            if label not in style:
-                continue
-            color, dash = style[label]
-            ax.plot(t, e, color=color, linestyle=dash, linewidth=1.2, label=label)
+            if label == "reference check":
+                ax.plot(t, e, color="black", linestyle="--", linewidth=1.0, label=label)
+            elif label in style:
+                color, dash = style[label]
+                ax.plot(t, e, color=color, linestyle=dash, linewidth=1.2, label=label)
         label_axes(ax, "t (s)", "RMS position error / cloth size", f"{scene}, dt = {dt_label(dt)}",
                    logx=False)
-    finish(fig, axes, "Error over time", path)
+    finish(fig, axes, "Error over time (default settings; dashed: the reference against itself)", path)
     return True
 
 

@@ -306,7 +306,8 @@ Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir
     }
     s.document["name"] = "grasp";
     s.commandsBag = bag;
-    // The commands are stamped on the recording's 0.01 s grid: every tested dt divides 0.04 s.
+    // The commands are stamped on the recording's steps (0.01 s): every tested dt divides it.
+    s.commandGrid = s.document["integrator"]["dt"].as<double>(0.01);
     s.sampleInterval = 0.04;
     s.dts = {0.04, 0.02, 0.01, 0.005, 0.0025};
     s.referenceDt = s.dts.back() / 8.0;

@@ -164,7 +164,8 @@ RunResult runScene(const RunRequest& request) {
     out.balanceMaxAbs = std::max(out.balanceMaxAbs, std::abs(e.balanceError));
     out.balanceEnd = e.balanceError;
     out.maxStretch = std::max(out.maxStretch, stretchMeter.measure(s.x).max);
-    out.minJ = std::min(out.minJ, minAreaRatio(*mesh, sim.model().rest(), s.x));
+    out.minJEnd = minAreaRatio(*mesh, sim.model().rest(), s.x);
+    out.minJ = std::min(out.minJ, out.minJEnd);
     if (sample && (k % *every == 0 || k == *total)) {
       out.samples.push_back(s.x);
       out.sampleTimes.push_back(s.time);

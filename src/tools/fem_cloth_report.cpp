@@ -193,17 +193,42 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
     if (opt.duration > 0.0) s.duration = opt.duration;
     if (selected(opt.scenes, s.name)) chosen.push_back(s);
   }
+  // The reference: BDF2 with a tight Newton tolerance and a step that resolves the fastest mode
+  // of the mesh (a quarter of the CFL bound 2 / omega_max, so h omega_max <= 0.5) and is at
+  // least 8x finer than the finest tested step; and the same at twice its step, whose
+  // difference from it bounds the reference's own error. Its steps per sample are a multiple of
+  // 2 q, q the command steps per sample, so that the reference and its check both sample at the
+  // same times and apply every recorded command at its stamp.
+  std::map<std::string, std::pair<double, double>> referenceSteps;  // scene: (dt, CFL bound)
+  for (const AccuracyScene& s : chosen) {
+    std::vector<std::string> overrides = opt.overrides;
+    overrides.push_back("integrator.name=bdf2");
+    Expected<YAML::Node> probe = withOverrides(s.document, overrides);
+    Expected<double> cfl = probe ? cflBound(*probe) : Expected<double>(Error{probe.error()});
+    if (!cfl) {
+      std::cerr << "fem_cloth_report: " << s.name << ": " << cfl.error() << '\n';
+      return 2;
+    }
+    const double target = std::min(s.referenceDt, opt.referenceResolution * *cfl);
+    const double q = s.commandGrid > 0.0 ? std::round(s.sampleInterval / s.commandGrid) : 1.0;
+    const double perSample = 2.0 * q * std::ceil(s.sampleInterval / target / (2.0 * q) - 1e-9);
+    referenceSteps[s.name] = {s.sampleInterval / perSample, *cfl};
+  }
   double totalWeight = 0.0;
   int totalItems = 0;
   for (const AccuracyScene& s : chosen) {
     for (double dt : s.dts) {
-      if (!wholeSteps(s.sampleInterval, dt) || !wholeSteps(s.duration, s.sampleInterval)) {
+      if (!wholeSteps(s.sampleInterval, dt) || !wholeSteps(s.duration, s.sampleInterval) ||
+          (s.commandGrid > 0.0 && ((!wholeSteps(s.commandGrid, dt) && !wholeSteps(dt, s.commandGrid)) ||
+                                   !wholeSteps(s.sampleInterval, s.commandGrid)))) {
         std::cerr << "fem_cloth_report: scene " << s.name << ": dt = " << dt << " s must divide the "
-                  << "sample interval " << s.sampleInterval << " s, which must divide the duration\n";
+                  << "sample interval " << s.sampleInterval << " s and divide or be a multiple of its "
+                  << "command grid; the sample interval must divide the duration\n";
         return 2;
       }
     }
-    totalWeight += 1.5 * s.duration / s.referenceDt;  // the reference and its check at 2 dt
+    // The reference and its check at twice its step.
+    totalWeight += 1.5 * s.duration / referenceSteps[s.name].first;
     totalItems += 2;
     std::set<std::string> seen;
     for (const Variant& variant : variants) {
@@ -245,25 +270,8 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
       r.sampleInterval = s.sampleInterval;
       return r;
     };
-    // The reference: BDF2 with a tight Newton tolerance and a step that resolves the fastest
-    // mode of the mesh (a quarter of the CFL bound 2 / omega_max, so h omega_max <= 0.5) and is
-    // at least 8x finer than the finest tested step; and the same at twice its step, whose
-    // difference from it bounds the reference's own error.
-    double cfl = 0.0;
-    {
-      Expected<RunRequest> probe = request({"integrator.name=bdf2"});
-      Expected<double> bound = probe ? cflBound(probe->scene) : Expected<double>(Error{probe.error()});
-      if (!bound) {
-        std::cerr << "fem_cloth_report: " << s.name << ": " << bound.error() << '\n';
-        return 2;
-      }
-      cfl = *bound;
-    }
-    const double target = std::min(s.referenceDt, opt.referenceResolution * cfl);
-    // An even number of reference steps per sample, so that the check at twice the step
-    // samples at the same times.
-    const double perSample = 2.0 * std::ceil(0.5 * s.sampleInterval / target - 1e-9);
-    const double referenceDt = s.sampleInterval / perSample;
+    const double cfl = referenceSteps.at(s.name).second;
+    const double referenceDt = referenceSteps.at(s.name).first;
     std::optional<Reference> reference;
     std::vector<double> checkErrors;
     for (const double refDt : {referenceDt, 2.0 * referenceDt}) {
@@ -527,7 +535,7 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
   std::ofstream csv(opt.out + "/stability.csv");
   csv << "case,material,stiffness,youngs_modulus,poisson_ratio,integrator,dt,verdict,steps,"
          "total_steps,t_reached,rollbacks,max_substeps,substeps,newton_iterations,energy_growth,"
-         "min_j,max_stretch,wall_s,error\n";
+         "min_j,min_j_end,max_stretch,wall_s,error\n";
   std::map<std::string, int> counts;
   std::map<std::string, std::map<std::string, int>> perIntegrator;
   for (const CellRun& c : cells) {
@@ -542,7 +550,8 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
         << ',' << num(c.cell.dt, 17) << ',' << verdict << ',' << r.steps << ',' << totalSteps
         << ',' << num(r.simulated) << ',' << r.rollbacks << ',' << r.maxSubsteps << ','
         << r.substeps << ',' << r.newtonIterations << ',' << num(r.energyGrowth) << ','
-        << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ',' << num(r.maxStretch) << ','
+        << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ','
+        << (std::isfinite(r.minJEnd) ? num(r.minJEnd) : "") << ',' << num(r.maxStretch) << ','
         << num(r.wall) << ',' << csvText(r.error) << '\n';
   }
 

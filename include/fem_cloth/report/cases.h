@@ -51,6 +51,9 @@ struct AccuracyScene {
   /// scene's CFL bound, so that the reference resolves every mode of the mesh.
   double referenceDt = 0.0;
   double referenceTolerance = 1e-6;  ///< its newton_tolerance (cloth sizes per second)
+  /// The step commands are stamped on (s; 0: none): every step of the study, the reference's
+  /// included, divides it, so a command takes effect at the same time in every run.
+  double commandGrid = 0.0;
   bool defaultSettingsOnly = false;  ///< only the first variant of each integrator
 };
 

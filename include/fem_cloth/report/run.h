@@ -66,6 +66,7 @@ struct RunResult {
   std::string finalHash;
   double maxStretch = 0.0;  ///< largest edge stretch l/L - 1 over all steps
   double minJ = std::numeric_limits<double>::infinity();  ///< smallest area ratio over all steps
+  double minJEnd = std::numeric_limits<double>::infinity();  ///< smallest area ratio at the end
 };
 
 std::string outcomeName(RunResult::Outcome outcome);
