@@ -3,8 +3,10 @@
 #include <ros/ros.h>
 
 #include "fem_cloth/ros/cloth_node.h"
+#include "fem_cloth/core/threads.h"
 
 int main(int argc, char** argv) {
+  fem_cloth::preferPassiveThreadWaiting(argv);
   ros::init(argc, argv, "fem_cloth_node");
   fem_cloth::ClothNode node{ros::NodeHandle(), ros::NodeHandle("~")};
   std::string error;

@@ -15,6 +15,9 @@ export PATH="/usr/bin:/bin:/usr/sbin:/sbin:$PATH"
 unset PYTHONHOME PYTHONPATH VIRTUAL_ENV
 export PYENV_VERSION=system
 export ROS_PYTHON_VERSION=3
+# OpenMP threads sleep while they wait (see include/fem_cloth/core/threads.h); the programs set
+# this themselves, test programs inherit it from here.
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
 
 fem_cloth_jobs() {
   local n

@@ -287,6 +287,17 @@ EvalResult QuadraticBending::evaluate(const VectorX& x, const EvalRequest& reque
 // DihedralBending
 // ---------------------------------------------------------------------------------------------
 
+void QuadraticBending::appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* triplets) const {
+  for (std::size_t h = 0; h < hinges_.size(); ++h) {
+    for (int a = 0; a < 4; ++a) {
+      for (int b = 0; b < 4; ++b) {
+        triplets->emplace_back(hinges_[h].vertices[a], hinges_[h].vertices[b],
+                               weights_[h] * stencils_[h][a] * stencils_[h][b]);
+      }
+    }
+  }
+}
+
 bool QuadraticBending::elementConstraints(Index h, const VectorX& x, double* C,
                                           double* jacobian) const {
   const std::size_t hinge = static_cast<std::size_t>(h);

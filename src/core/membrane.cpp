@@ -1,7 +1,9 @@
 #include "fem_cloth/core/membrane.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+#include <type_traits>
 
 namespace fem_cloth {
 
@@ -69,6 +71,52 @@ class MembraneTerm final : public EnergyTerm {
     const ConstraintStiffness Km = rest_->restArea[t] * model_.constraintStiffness();
     for (int i = 0; i < Km.rows(); ++i) {
       for (int j = 0; j < Km.cols(); ++j) K[i * Km.cols() + j] = Km(i, j);
+    }
+  }
+
+  // Projective form of ARAP: A mu |F - R|^2 = (2 mu A)/2 |S x - R|^2 per coordinate row of F,
+  // with S the 2 x 3 matrix of shape gradients and R the closest rotation (polar).
+  bool supportsProjective() const override { return std::is_same_v<Model, Arap> && D == 3; }
+  void appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* triplets) const override {
+    for (Index t = 0; t < mesh_->numTriangles(); ++t) {
+      const double w = 2.0 * model_.mu() * rest_->restArea[t];
+      const Eigen::Matrix<double, 3, 2>& G = rest_->shapeGradients[t];
+      const Eigen::Matrix3d block = w * G * G.transpose();
+      const Triangle& tri = mesh_->triangles[t];
+      for (int a = 0; a < 3; ++a) {
+        for (int b = 0; b < 3; ++b) triplets->emplace_back(tri[a], tri[b], block(a, b));
+      }
+    }
+  }
+  void addProjectiveRhs(const VectorX& x, VectorX* rhs) override {
+    const Index m = mesh_->numTriangles();
+    if constexpr (D == 3) {
+#pragma omp parallel for schedule(static) if (m >= kParallelElementThreshold)
+      for (Index t = 0; t < m; ++t) {
+        const DefGrad<3> F = deformationGradient<3>(*mesh_, *rest_, x, t);
+        // Closest rotation (3 x 2, orthonormal columns): F = Q R2 with R2 upper triangular,
+        // whose 2 x 2 polar rotation has angle atan2(-r12, r11 + r22).
+        const Eigen::Matrix<double, 3, 2> Q = planeBasis(F);
+        const Eigen::Matrix2d R2 = Q.transpose() * F;
+        const double c0 = R2(0, 0) + R2(1, 1), s0 = -R2(0, 1);
+        const double norm = std::sqrt(c0 * c0 + s0 * s0);  // no overflow at these sizes
+        const double c = norm > 0.0 ? c0 / norm : 1.0, s = norm > 0.0 ? s0 / norm : 0.0;
+        Eigen::Matrix2d rot;
+        rot << c, -s, s, c;
+        const DefGrad<3> R = Q * rot;
+        const double w = 2.0 * model_.mu() * rest_->restArea[t];
+        for (int a = 0; a < 3; ++a) {
+          gradient_[t].template segment<3>(3 * a) = w * (R * rest_->shapeGradients[t].row(a).transpose());
+        }
+      }
+      // Fixed-order scatter: the same sum for any number of threads.
+      for (Index t = 0; t < m; ++t) {
+        const Triangle& tri = mesh_->triangles[t];
+        for (int a = 0; a < 3; ++a) rhs->template segment<3>(3 * tri[a]) += gradient_[t].template segment<3>(3 * a);
+      }
+    } else {
+      (void)x;
+      (void)rhs;
     }
   }
 

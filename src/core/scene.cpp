@@ -48,7 +48,7 @@ Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
 
 const std::vector<std::string>& integratorNames() {
   static const std::vector<std::string> names = {"symplectic_euler", "backward_euler", "bdf2",
-                                                 "xpbd"};
+                                                 "xpbd", "projective_dynamics"};
   return names;
 }
 
@@ -89,7 +89,28 @@ Status validateScene(const Scene& s) {
   if (std::find(integratorNames().begin(), integratorNames().end(), s.integrator) ==
       integratorNames().end()) {
     return Error{"integrator.name: unknown integrator '" + s.integrator +
-                 "' (known: symplectic_euler, backward_euler, bdf2, xpbd)"};
+                 "' (known: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics)"};
+  }
+  if (s.integrator == "projective_dynamics") {
+    // Projective dynamics needs every energy term in the form w/2 |A x - p(x)|^2 with a constant
+    // A (Bouaziz et al. 2014, sec. 3); here that is the ARAP membrane and quadratic bending on
+    // cloth. Say so when the scene is loaded rather than at the first step.
+    if (s.materialModel != "arap") {
+      return Error{"material.model: projective_dynamics simulates the arap membrane only, got '" +
+                   s.materialModel + "' (use material.model: arap, or another integrator)"};
+    }
+    const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
+    if (dim != 3) {
+      return Error{"mesh.dim: projective_dynamics simulates cloth (dim 3) only"};
+    }
+    if (s.bendingStiffness > 0.0 && s.bendingModel != "quadratic") {
+      return Error{"bending.model: projective_dynamics needs the quadratic bending model, got '" +
+                   s.bendingModel + "'"};
+    }
+    if (s.damping.stiffnessProportional > 0.0) {
+      return Error{"damping.stiffness: projective_dynamics has no stiffness damping; set it to 0 "
+                   "and use damping.mass"};
+    }
   }
   FEM_CLOTH_CHECK(positiveFinite(s.dt, "integrator.dt", "s"));
   if (s.substeps < 1) return Error{"integrator.substeps must be at least 1, got " + std::to_string(s.substeps)};
@@ -101,7 +122,10 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(positiveFinite(s.newton.tolerance, "integrator.newton_tolerance", "relative"));
   if (s.newton.maxBacktracks < 0) return Error{"integrator.max_backtracks must be >= 0"};
   FEM_CLOTH_CHECK(positiveFinite(s.newton.linear.cgTolerance, "integrator.cg_tolerance", "relative"));
-  if (s.xpbdIterations < 1) return Error{"integrator.iterations must be at least 1"};
+  if (s.iterations < 1) return Error{"integrator.iterations must be at least 1"};
+  if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
+    return Error{"integrator.chebyshev_rho must be in [0, 1), got " + str(s.chebyshevRho)};
+  }
   for (std::size_t i = 0; i < s.pins.size(); ++i) {
     const std::string key = "pins[" + std::to_string(i) + "]";
     const ScenePin& p = s.pins[i];
@@ -248,9 +272,15 @@ std::unique_ptr<Integrator> makeIntegrator(const Scene& s) {
     settings.cflSafety = s.cflSafety;
     return std::make_unique<SymplecticEuler>(settings);
   }
+  if (s.integrator == "projective_dynamics") {
+    ProjectiveDynamicsSettings settings;
+    settings.iterations = s.iterations;
+    settings.chebyshevRho = s.chebyshevRho;
+    return std::make_unique<ProjectiveDynamics>(settings);
+  }
   if (s.integrator == "xpbd") {
     XpbdSettings settings;
-    settings.iterations = s.xpbdIterations;
+    settings.iterations = s.iterations;
     return std::make_unique<Xpbd>(settings);
   }
   return std::make_unique<ImplicitIntegrator>(

@@ -273,7 +273,7 @@ StepReport Simulator::step(double dt) {
     total.substeps = r.substeps;
     total.newtonIterations += r.newtonIterations;
     total.lineSearchBacktracks += r.lineSearchBacktracks;
-    total.xpbdIterations += r.xpbdIterations;
+    total.iterations += r.iterations;
     total.residual = r.residual;
     total.dtUsed = r.dtUsed;
     if (r.ok && state_.x.allFinite() && state_.v.allFinite()) {

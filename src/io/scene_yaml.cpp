@@ -233,7 +233,7 @@ Status readIntegrator(const YAML::Node& node, Scene& s) {
   MapReader r(node, "integrator",
               {"name", "dt", "substeps", "auto_substep", "cfl_safety", "max_retries",
                "max_newton_iterations", "newton_tolerance", "max_backtracks", "linear_solver",
-               "cg_tolerance", "cg_max_iterations", "iterations"});
+               "cg_tolerance", "cg_max_iterations", "iterations", "chebyshev_rho"});
   FEM_CLOTH_TRY(r.check());
   FEM_CLOTH_TRY(r.text("name", s.integrator));
   FEM_CLOTH_TRY(r.number("dt", s.dt));
@@ -251,7 +251,8 @@ Status readIntegrator(const YAML::Node& node, Scene& s) {
   s.newton.linear.kind = *kind;
   FEM_CLOTH_TRY(r.number("cg_tolerance", s.newton.linear.cgTolerance));
   FEM_CLOTH_TRY(r.integer("cg_max_iterations", s.newton.linear.cgMaxIterations));
-  FEM_CLOTH_TRY(r.integer("iterations", s.xpbdIterations));
+  FEM_CLOTH_TRY(r.integer("iterations", s.iterations));
+  FEM_CLOTH_TRY(r.number("chebyshev_rho", s.chebyshevRho));
   return Status::success();
 }
 

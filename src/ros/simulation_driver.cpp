@@ -110,7 +110,8 @@ bool SimulationDriver::isSimulationFrame(const std::string& frame) const {
 
 std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& frame,
                                                              const ros::Time& at,
-                                                             std::string* why) const {
+                                                             std::string* why,
+                                                             std::string* inexact) const {
   if (isSimulationFrame(frame)) return Eigen::Isometry3d::Identity();
   if (tf_ == nullptr) {
     if (why) *why = "frame '" + frame + "' needs tf, which is not available here";
@@ -135,11 +136,38 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
     if (tf_->canTransform(target, source, at, &error)) {
       return tf2::transformToEigen(tf_->lookupTransform(target, source, at));
     }
-    // Not available at that time (not yet received, or the frame stopped): the newest transform
-    // serves if it is recent enough.
+    // Not available at that time. Later than the newest transform (not yet received, or the
+    // frame stopped): the newest serves if it is recent enough. Earlier (before the frame's
+    // first transform, e.g. a frame that has just appeared): the oldest one, found by bisection
+    // on canTransform, which holds on the whole span tf has kept.
     const geometry_msgs::TransformStamped latest = tf_->lookupTransform(target, source, ros::Time(0));
+    if (latest.header.stamp.isZero()) return tf2::transformToEigen(latest);  // static transform
+    if (at < latest.header.stamp) {
+      ros::Time unavailable = at, available = latest.header.stamp;
+      while ((available - unavailable).toSec() > 1e-6) {
+        const ros::Time mid = unavailable + (available - unavailable) * 0.5;
+        (tf_->canTransform(target, source, mid) ? available : unavailable) = mid;
+      }
+      const double gap = (available - at).toSec();
+      if (gap <= settings_.tfTimeout) {
+        if (inexact) {
+          *inexact = "frame '" + frame + "' is not known yet at " + str(at.toSec()) +
+                     " s; its first transform, " + str(gap) + " s later, stands in";
+        }
+        return tf2::transformToEigen(tf_->lookupTransform(target, source, available));
+      }
+      if (why) {
+        *why = "frame '" + frame + "' is unknown at the time it is needed: its first transform " +
+               "is " + str(gap) + " s later (tf_timeout = " + str(settings_.tfTimeout) + " s)";
+      }
+      return std::nullopt;
+    }
     const double age = (at - latest.header.stamp).toSec();
-    if (latest.header.stamp.isZero() || age <= settings_.tfTimeout) {
+    if (age <= settings_.tfTimeout) {
+      if (inexact) {
+        *inexact = "frame '" + frame + "' is not known yet at " + str(at.toSec()) +
+                   " s; its newest transform, " + str(age) + " s older, stands in";
+      }
       return tf2::transformToEigen(latest);
     }
     if (why) {
@@ -153,21 +181,26 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
   return std::nullopt;
 }
 
-bool SimulationDriver::exactlyKnown(const std::string& frame, const ros::Time& at) const {
+bool SimulationDriver::knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const {
   if (isSimulationFrame(frame)) return true;
   if (tf_ == nullptr) return false;
   const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
   const std::string target =
       settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
   if (!tf_->_frameExists(source) || !tf_->_frameExists(target)) return false;
-  return tf_->canTransform(target, source, at);
+  if (tf_->canTransform(target, source, at)) return true;
+  try {
+    return at <= tf_->lookupTransform(target, source, ros::Time(0)).header.stamp;
+  } catch (const tf2::TransformException&) {
+    return false;  // not connected (yet)
+  }
 }
 
 bool SimulationDriver::transformsReady(std::string* missing) const {
   const double t = simulator().time();
   const double dt = simulator().settings().dt;
   auto check = [&](const std::string& frame, double when) {
-    if (exactlyKnown(frame, stampOf(when))) return true;
+    if (knownOrNeverWillBe(frame, stampOf(when))) return true;
     if (missing != nullptr) {
       *missing = "frame '" + frame + "' at t = " + str(when) + " s";
     }
@@ -277,9 +310,10 @@ Status SimulationDriver::apply(const PinCommand& c) {
     }
     return Status::success();
   }
-  std::string why;
-  const std::optional<Eigen::Isometry3d> T = transform(c.header.frame_id, now(), &why);
+  std::string why, inexact;
+  const std::optional<Eigen::Isometry3d> T = transform(c.header.frame_id, now(), &why, &inexact);
   if (!T) return Error{why};
+  if (!inexact.empty()) warnings_.push_back("pin command: " + inexact);
   const bool follows = !isSimulationFrame(c.header.frame_id);
   for (std::size_t k = 0; k < c.vertices.size(); ++k) {
     const Index v = static_cast<Index>(c.vertices[k]);
@@ -326,10 +360,16 @@ void SimulationDriver::followFrames(double endTime) {
   const int d = simulator().dim();
   for (const auto& [vertex, follow] : follow_) {
     std::string why;
-    const std::optional<Eigen::Isometry3d> T = transform(follow.frame, stampOf(endTime), &why);
+    std::string inexact;
+    const std::optional<Eigen::Isometry3d> T =
+        transform(follow.frame, stampOf(endTime), &why, &inexact);
     if (!T) {
       warnings_.push_back("pin of vertex " + std::to_string(vertex) + " keeps its last target: " + why);
       continue;
+    }
+    if (!inexact.empty()) {
+      warnings_.push_back("pin of vertex " + std::to_string(vertex) + ": " + inexact +
+                          " (a replay of this run may differ)");
     }
     Eigen::Vector3d target = *T * follow.local;
     if (d == 2) target.z() = 0.0;

@@ -24,6 +24,7 @@
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
+#include "fem_cloth/core/threads.h"
 
 using namespace fem_cloth;
 
@@ -47,6 +48,7 @@ struct Options {
 struct Totals {
   std::uint64_t steps = 0;
   std::uint64_t newtonIterations = 0;
+  std::uint64_t localIterations = 0;  // XPBD sweeps, projective dynamics iterations
   std::uint64_t backtracks = 0;
   std::uint64_t rollbacks = 0;
   std::uint64_t substeps = 0;
@@ -162,6 +164,7 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  fem_cloth::preferPassiveThreadWaiting(argv);
   Options opt;
   CLI::App app{
       "Runs a fem_cloth scene headless (no ROS master needed) and prints a summary.\n"
@@ -171,7 +174,7 @@ int main(int argc, char** argv) {
                  "scene YAML file (see docs/scenes.md); with --commands, replaces the scene "
                  "stored in the bag");
   app.add_option("--integrator", opt.integrator,
-                 "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd");
+                 "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics");
   app.add_option("--dt", opt.dt, "override integrator.dt (s)");
   app.add_option("--duration", opt.duration, "override the scene's duration (s)");
   app.add_option("--set", opt.overrides, "override any scene key: key.path=value (repeatable)");
@@ -298,6 +301,7 @@ int main(int argc, char** argv) {
     }
     ++totals.steps;
     totals.newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
+    totals.localIterations += static_cast<std::uint64_t>(r.iterations);
     totals.backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
     totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
     totals.substeps += static_cast<std::uint64_t>(r.substeps);
@@ -319,7 +323,9 @@ int main(int argc, char** argv) {
           << simulator.model().numVertices() << " vertices, " << simulator.model().mesh().numTriangles()
           << " triangles, model " << scene->materialModel << '\n';
   summary << "integrator:   " << simulator.integrator().name() << ", dt " << dt << " s";
-  if (scene->integrator == "xpbd") summary << ", " << scene->xpbdIterations << " iterations";
+  if (scene->integrator == "xpbd" || scene->integrator == "projective_dynamics") {
+    summary << ", " << scene->iterations << " iterations";
+  }
   summary << '\n';
   summary << "steps:        " << totals.steps << " of " << totalSteps << " (" << totals.substeps
           << " substeps), simulated " << simulator.time() << " s in " << wall << " s wall"
@@ -335,11 +341,24 @@ int main(int argc, char** argv) {
   summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
           << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
   summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
-  summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
-          << (totals.steps ? static_cast<double>(totals.newtonIterations) / totals.steps : 0.0)
-          << " per step), max residual " << totals.maxResidual << " N, " << totals.backtracks
-          << " line-search backtracks, " << totals.rollbacks << " rollbacks, " << totals.failures
-          << " failures\n";
+  auto perStep = [&](std::uint64_t count) {
+    return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
+  };
+  if (scene->integrator == "xpbd" || scene->integrator == "projective_dynamics") {
+    // Their iterations are local sweeps (XPBD) or local/global iterations (PD), not Newton's.
+    summary << "solver:       " << totals.localIterations << " "
+            << (scene->integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
+            << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
+            << " substeps, " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else if (scene->integrator == "symplectic_euler") {
+    summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
+            << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else {
+    summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
+            << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
+            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks
+            << " rollbacks, " << totals.failures << " failures\n";
+  }
   if (!opt.noOutput) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
   if (!failure.empty()) {

@@ -24,32 +24,8 @@
 
 using namespace fem_cloth;
 
-// Counts heap allocations, to check that a steady-state evaluation allocates nothing: malloc
-// itself is wrapped (glibc), so that operator new and Eigen's heap allocations (which go through
-// malloc) both count. posix_memalign and aligned_alloc are not wrapped.
-#ifdef __GLIBC__
-#define FEM_CLOTH_COUNT_ALLOCATIONS 1
-namespace {
-std::atomic<long> allocationCount{0};
-}  // namespace
-extern "C" {
-void* __libc_malloc(std::size_t size);
-void* __libc_calloc(std::size_t count, std::size_t size);
-void* __libc_realloc(void* p, std::size_t size);
-void* malloc(std::size_t size) {
-  allocationCount.fetch_add(1, std::memory_order_relaxed);
-  return __libc_malloc(size);
-}
-void* calloc(std::size_t count, std::size_t size) {
-  allocationCount.fetch_add(1, std::memory_order_relaxed);
-  return __libc_calloc(count, size);
-}
-void* realloc(void* p, std::size_t size) {
-  allocationCount.fetch_add(1, std::memory_order_relaxed);
-  return __libc_realloc(p, size);
-}
-}
-#endif
+#include "../allocation_counter.h"
+using fem_cloth::test::allocationCount;
 
 namespace {
 

@@ -37,7 +37,7 @@ Scene orderScene(const std::string& integrator, int steps) {
   // m eps |x| / c^2, is 2.6e-9 x the weight; 1e-7 (positions within 1e-7 T^2 = 6e-9 m) is
   // still far below its own error.
   s.newton.tolerance = steps > 1000 ? 1e-7 : 1e-9;
-  s.xpbdIterations = 100;
+  s.iterations = 100;
   return s;
 }
 

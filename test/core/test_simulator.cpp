@@ -224,6 +224,7 @@ INSTANTIATE_TEST_SUITE_P(AllIntegrators, Forces, ::testing::ValuesIn(allIntegrat
 // A cloth hanging at rest from two corners: the pins carry its whole weight, so the reactions
 // (the force the cloth exerts on the pins) add up to the total weight M g, pointing down.
 // Damped (mass damping 4/s) for 6 s, it has settled (velocities below 1e-4 m/s).
+// Projective dynamics runs ARAP (the one membrane it simulates) and needs longer, see below.
 //
 // XPBD's fixed point is backward Euler's only while the constraint gradients stay put during a
 // step's projection (Macklin et al. 2016 drop their change, eq. 11); at rest the projection
@@ -244,7 +245,11 @@ Eigen::Vector3d settledReactions(const std::string& integrator, double dt, doubl
   scene.pins = {pins};
   Simulation sim = mustBuild(scene);
   Simulator& s = *sim.simulator;
-  EXPECT_EQ(run(sim, static_cast<int>(std::lround(6.0 / dt))), "");
+  // Projective dynamics with its default 10 local/global iterations stops each step short of
+  // the minimiser, so the cloth creeps to rest more slowly than the damping alone would let it
+  // (measured: 0.017 m/s left after 6 s, under 1e-5 m/s after 24 s); it gets 24 s.
+  const double seconds = integrator == "projective_dynamics" ? 24.0 : 6.0;
+  EXPECT_EQ(run(sim, static_cast<int>(std::lround(seconds / dt))), "");
   EXPECT_LT(maxAbs(s.state().v), 1e-4) << "settled";
   const VectorX reactions = s.pinReactions();
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();

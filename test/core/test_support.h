@@ -22,9 +22,26 @@ constexpr double kG = 9.81;  // m/s^2
 /// The integrators in the order the scene format lists them.
 inline const std::vector<std::string>& allIntegrators() { return integratorNames(); }
 
+/// The integrators that simulate planar sheets (dim 2) with any material: all but projective
+/// dynamics, which is limited to ARAP cloth (its scope is tested in test_projective_dynamics).
+inline std::vector<std::string> planarIntegrators() {
+  std::vector<std::string> names;
+  for (const std::string& n : integratorNames()) {
+    if (n != "projective_dynamics") names.push_back(n);
+  }
+  return names;
+}
+
+/// The material a cloth test uses with `integrator`: `preferred`, except ARAP for projective
+/// dynamics, which simulates nothing else.
+inline std::string clothMaterialFor(const std::string& integrator, const std::string& preferred) {
+  return integrator == "projective_dynamics" ? "arap" : preferred;
+}
+
 /// A flat grid sheet, 1 kg/m^2 (density 1000 kg/m^3 x thickness 1 mm), StVK with membrane
 /// moduli mu = lambda = `membraneModulus` (N/m), no bending, no damping, no pins, gravity -g z
-/// (or none for planar sheets). rows = cols = n vertices on a side x side square.
+/// (or none for planar sheets). rows = cols = n vertices on a side x side square. Projective
+/// dynamics gets ARAP with the same mu (see clothMaterialFor).
 inline Scene gridScene(int dim, int n, double side, const std::string& integrator,
                        double membraneModulus = 100.0) {
   Scene s;
@@ -36,7 +53,7 @@ inline Scene gridScene(int dim, int n, double side, const std::string& integrato
   s.grid.cols = n;
   s.grid.width = side;
   s.grid.height = side;
-  s.materialModel = "stvk";
+  s.materialModel = clothMaterialFor(integrator, "stvk");
   s.thickness = 1e-3;
   s.density = 1000.0;
   s.mu = membraneModulus / s.thickness;

@@ -1,7 +1,7 @@
 // Pins: a pin holds a vertex exactly at its target, and a pin in a frame moved by a tf
 // broadcaster follows that frame.
 #include <tf2/LinearMath/Vector3.h>
-#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_msgs/TFMessage.h>
 
 #include <atomic>
 
@@ -56,9 +56,12 @@ TEST(Pins, FollowsAFrameMovedByTf) {
   auto gripperAt = [&](const ros::Time& t) {
     return tf2::Vector3(0.5, 0.0, speed * (t - t0).toSec());
   };
+  // Published on /tf directly, so the test can wait until the node's tf listener is connected
+  // (a message sent before that is lost, and the node would not know the frame yet).
+  ros::Publisher tfPub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
+  ASSERT_TRUE(waitForConnection(tfPub));
   std::atomic<bool> stop{false};
   std::thread broadcaster([&] {
-    tf2_ros::TransformBroadcaster br;
     while (!stop && ros::ok()) {
       const ros::Time stamp = ros::Time::now() + ros::Duration(0.2);
       geometry_msgs::TransformStamped tf;
@@ -70,16 +73,31 @@ TEST(Pins, FollowsAFrameMovedByTf) {
       tf.transform.translation.y = p.y();
       tf.transform.translation.z = p.z();
       tf.transform.rotation.w = 1.0;
-      br.sendTransform(tf);
+      tf2_msgs::TFMessage message;
+      message.transforms.push_back(tf);
+      tfPub.publish(message);
       ros::WallDuration(0.01).sleep();
     }
   });
-  ros::WallDuration(0.5).sleep();  // let the node's tf buffer fill
+  // Stops and joins the broadcaster however the test ends (an ASSERT returns early).
+  struct Joiner {
+    std::atomic<bool>& stop;
+    std::thread& thread;
+    ~Joiner() {
+      stop = true;
+      if (thread.joinable()) thread.join();
+    }
+  } joiner{stop, broadcaster};
+  // Stamp the command 0.3 s ahead: the node applies it at that simulation time, which its tf
+  // buffer covers exactly (a command stamped before the frame's first transform would be
+  // served the nearest transform instead, with a warning).
+  ros::WallDuration(0.1).sleep();
 
   // Vertex 4 (middle of the pinned edge, at x = 0.5) held 0.1 m beside and 0.1 m below the
-  // gripper: x = 0.6 tells when the command has taken effect.
+  // gripper from the command's stamp on.
   fem_cloth::PinCommand c;
   c.header.frame_id = "gripper";
+  c.header.stamp = ros::Time::now() + ros::Duration(0.3);
   c.action = fem_cloth::PinCommand::PIN_AT_TARGETS;
   c.vertices = {4};
   geometry_msgs::Point local;
@@ -99,12 +117,13 @@ TEST(Pins, FollowsAFrameMovedByTf) {
     const tf2::Vector3 g = gripperAt(s->header.stamp);
     const double dz = s->positions[4].z - (g.z() - 0.1);
     const double dx = s->positions[4].x - (g.x() + 0.1);
-    if (std::abs(dx) > 1e-3) continue;  // the command has not taken effect yet
+    // The command takes effect before the first step that starts at or after its stamp, so
+    // from the state that step ends in (dt = 0.01 s in small_cloth.yaml).
+    if (s->header.stamp < c.header.stamp + ros::Duration(0.01)) continue;
+    EXPECT_LT(std::abs(dx), 1e-12) << "at " << s->header.stamp;
     worst = std::max(worst, std::abs(dz));
     ++checked;
   }
-  stop = true;
-  broadcaster.join();
   ASSERT_EQ(checked, 20) << "the pinned vertex never followed the gripper";
   // Exact up to tf's float-to-double round trips.
   EXPECT_LT(worst, 1e-6);

@@ -126,6 +126,11 @@ class QuadraticBending final : public HingeTerm {
   EvalResult evaluate(const VectorX& x, const EvalRequest& request) override;
   bool hasConstantHessian() const override { return true; }
 
+  /// Projective form: already quadratic, E = 1/2 x^T Q x with p = 0; nothing to project.
+  bool supportsProjective() const override { return true; }
+  void appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* triplets) const override;
+  void addProjectiveRhs(const VectorX& /*x*/, VectorX* /*rhs*/) override {}
+
   /// Constraint form: C = sum_a K_a x_a (3 values, linear in x), K_e = weight I.
   int constraintsPerElement() const override { return 3; }
   bool elementConstraints(Index hinge, const VectorX& x, double* C, double* jacobian) const override;

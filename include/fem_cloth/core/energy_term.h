@@ -3,6 +3,7 @@
 // sign convention of conventions.h: gradient = +dE/dx.
 #pragma once
 
+#include <Eigen/SparseCore>
 #include <limits>
 #include <string>
 #include <vector>
@@ -71,6 +72,17 @@ class EnergyTerm {
   }
   /// K_e (k x k, row-major), constant.
   virtual void elementConstraintStiffness(Index /*element*/, double* /*K*/) const {}
+
+  // Projective form, for Projective Dynamics (Bouaziz, Martin, Liu, Kavan & Pauly, "Projective
+  // Dynamics: Fusing Constraint Projections for Fast Simulation", 2014): the energy is
+  //   E(x) = sum_i w_i / 2 |S_i x - p_i(x)|^2,  p_i(x) = argmin over the element's rest-shape set,
+  // with S_i acting on every coordinate alike. Then the system matrix sum_i w_i S_i^T S_i is
+  // constant and the same scalar (n x n) matrix for every coordinate.
+  virtual bool supportsProjective() const { return false; }
+  /// Adds the scalar matrix sum_i w_i S_i^T S_i (vertex indices, n x n) as triplets.
+  virtual void appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* /*triplets*/) const {}
+  /// The local step: rhs += sum_i w_i S_i^T p_i(x) (a flat d*n vector).
+  virtual void addProjectiveRhs(const VectorX& /*x*/, VectorX* /*rhs*/) {}
 };
 
 }  // namespace fem_cloth

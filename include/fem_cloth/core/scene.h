@@ -13,6 +13,7 @@
 
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/implicit.h"
+#include "fem_cloth/core/integrators/projective_dynamics.h"
 #include "fem_cloth/core/integrators/symplectic_euler.h"
 #include "fem_cloth/core/integrators/xpbd.h"
 #include "fem_cloth/core/materials/materials.h"
@@ -88,7 +89,8 @@ struct Scene {
   double cflSafety = 0.5;   ///< symplectic_euler
   int maxRetries = 4;
   NewtonSettings newton;
-  int xpbdIterations = 10;
+  int iterations = 10;  ///< xpbd: Gauss-Seidel sweeps; projective_dynamics: local/global iterations
+  double chebyshevRho = 0.0;  ///< projective_dynamics: Chebyshev acceleration (0: off)
 
   std::vector<ScenePin> pins;
   std::vector<SceneForce> forces;

@@ -113,9 +113,14 @@ class SimulationDriver {
 
   Status checkFrame(const std::string& frame, const ros::Time& stamp) const;
   bool isSimulationFrame(const std::string& frame) const;
+  /// `frame` -> simulation frame at `at`; when tf cannot interpolate there, the nearest
+  /// transform within tf_timeout, and `inexact` (if given) says which one was used.
   std::optional<Eigen::Isometry3d> transform(const std::string& frame, const ros::Time& at,
-                                             std::string* why) const;
-  bool exactlyKnown(const std::string& frame, const ros::Time& at) const;
+                                             std::string* why, std::string* inexact = nullptr) const;
+  /// True when tf can interpolate `frame` at `at`, or when waiting cannot help: `at` is not
+  /// later than the newest transform received (it precedes the frame's first transform, or
+  /// falls in a gap), so the transform for it will never arrive.
+  bool knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const;
   double commandTime(const ros::Time& stamp) const;
   Status apply(const PinCommand& command);
   Status apply(const ForceCommand& command);

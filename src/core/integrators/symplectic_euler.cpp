@@ -17,20 +17,28 @@ double SymplecticEuler::stableStep(Model& model, const VectorX& x, const std::ve
   model.evaluate(x, request);
   // Power iteration on the symmetric M^-1/2 K M^-1/2 restricted to free DOFs. The start vector
   // alternates in sign from DOF to DOF so it overlaps the highest (checkerboard) modes.
-  const VectorX invSqrtMass = model.dofMasses().cwiseSqrt().cwiseInverse();
   const Index n = model.numDofs();
-  VectorX u(n), w(n);
+  invSqrtMass_ = model.dofMasses().cwiseSqrt().cwiseInverse();
+  powerU_.resize(n);
+  powerW_.resize(n);
+  powerS_.resize(n);
+  const VectorX& invSqrtMass = invSqrtMass_;
+  VectorX& u = powerU_;  // the iterate (unit length)
+  VectorX& w = powerW_;  // B u, B = M^-1/2 K M^-1/2 on the free DOFs
+  VectorX& scratch = powerS_;
   for (Index i = 0; i < n; ++i) u[i] = pinned[i] ? 0.0 : ((i / model.dim()) % 2 ? 1.0 : -1.0) + 0.1 * std::sin(i);
   double lambdaMax = 0.0;
   for (int it = 0; it < 60; ++it) {
     const double norm = u.norm();
     if (!(norm > 0.0)) break;
     u /= norm;
-    w = invSqrtMass.cwiseProduct(H.matrix() * invSqrtMass.cwiseProduct(u));
+    w = invSqrtMass.cwiseProduct(u);
+    scratch.noalias() = H.matrix() * w;
+    w = invSqrtMass.cwiseProduct(scratch);
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) w[i] = 0.0;
     }
-    const double estimate = u.dot(w);
+    const double estimate = u.dot(w);  // Rayleigh quotient
     const bool settled = std::abs(estimate - lambdaMax) <= 1e-3 * estimate;
     lambdaMax = estimate;
     u = w;

@@ -153,7 +153,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
         }
       }
     }
-    report.xpbdIterations += settings_.iterations;
+    report.iterations += settings_.iterations;
     for (Index i = 0; i < n; ++i) state.v[i] = (state.x[i] - xStart_[i]) / h;
     if (!state.x.allFinite() || !state.v.allFinite()) {
       report.ok = false;

@@ -63,7 +63,7 @@ struct StepReport {
   double residual = 0.0;   ///< final Newton residual (N, max over free DOFs); 0 for explicit
   int lineSearchBacktracks = 0;
   int rollbacks = 0;       ///< failed attempts that were undone and retried
-  int xpbdIterations = 0;
+  int iterations = 0;  ///< local solver iterations (XPBD sweeps, projective dynamics iterations)
   double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
   double dtUsed = 0.0;      ///< the (sub)step size of the last successful attempt (s)
 };

@@ -39,8 +39,8 @@ class SymplecticEuler final : public Integrator {
 
   /// The largest stable step at positions x (s): 2/omega_max, reduced for stiffness damping
   /// beta to (2/omega)(sqrt(1 + zeta^2) - zeta) with zeta = beta omega / 2.
-  static double stableStep(Model& model, const VectorX& x, const std::vector<char>& pinned,
-                           const Damping& damping);
+  double stableStep(Model& model, const VectorX& x, const std::vector<char>& pinned,
+                    const Damping& damping);
 
   /// The bound the stepper currently uses (0 before the first step).
   double currentStableStep() const { return stableStep_; }
@@ -51,6 +51,7 @@ class SymplecticEuler final : public Integrator {
   std::uint64_t boundAge_ = 0;
   VectorX force_, gradient_, velocityStart_;
   VectorX shifted_, shiftedGradient_, dampingForce_;  // stiffness damping only
+  VectorX invSqrtMass_, powerU_, powerW_, powerS_;    // power iteration (stableStep)
 };
 
 }  // namespace fem_cloth
