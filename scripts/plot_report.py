@@ -48,7 +48,7 @@ VERDICT_COLORS = OrderedDict([
     ("recovered", "#cddc39"),
     ("failed", "#ff7043"),
     ("too_slow", "#ab47bc"),
-    ("unsupported", "#bdbdbd"),
+    ("n/a", "#bdbdbd"),
     ("non_finite", "#000000"),
 ])
 
@@ -280,6 +280,8 @@ def plot_stability(cells, path):
                 ax.add_patch(plt.Rectangle((x, y), 1, 1, facecolor=color, edgecolor="white", linewidth=0.6))
                 if c["verdict"] == "recovered":
                     ax.text(x + 0.5, y + 0.5, c["rollbacks"], ha="center", va="center", fontsize=5)
+                elif c["verdict"] == "n/a":
+                    ax.text(x + 0.5, y + 0.5, "n/a", ha="center", va="center", fontsize=3.5, color="#616161")
         ax.set_xlim(0, len(cols))
         ax.set_ylim(len(rows), 0)
         ax.set_yticks([y + 0.5 for y in range(len(rows))])
@@ -297,7 +299,7 @@ def plot_stability(cells, path):
         ax.tick_params(length=0)
     legend = [Patch(facecolor=v, label=k.replace("_", " ")) for k, v in VERDICT_COLORS.items()]
     fig.legend(handles=legend, loc="lower center", ncol=len(legend), fontsize=7, frameon=False)
-    fig.suptitle("Stability matrix (numbers: rollbacks of recovered cells; columns: dt in s)", fontsize=10)
+    fig.suptitle("Stability matrix (numbers: rollbacks of recovered cells; n/a: the integrator does not take the material; columns: dt in s)", fontsize=10)
     fig.tight_layout(rect=(0, 0.03, 1, 0.97))
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -198,6 +198,13 @@ std::vector<Variant> workPrecisionVariants(const std::vector<std::string>& integ
       for (double tol : tolerances) {
         add(name + " tol " + shortNumber(tol), {setting("integrator.newton_tolerance", tol)});
       }
+    } else if (name == "projective_dynamics") {
+      // Around its default of 10 local/global iterations, and the fast scene's setting
+      // (config/hanging_cloth_fast.yaml: 7 iterations with Chebyshev acceleration, rho 0.9).
+      for (int it : small ? std::vector<int>{10} : std::vector<int>{5, 10, 20}) {
+        add(name + " " + std::to_string(it) + " it", {"integrator.iterations=" + std::to_string(it)});
+      }
+      if (!small) add(name + " 7 it rho 0.9", {"integrator.iterations=7", "integrator.chebyshev_rho=0.9"});
     } else {
       std::vector<int> iterations = small ? std::vector<int>{4} : std::vector<int>{4, 16, 64};
       if (name == "xpbd" && !small) iterations.insert(iterations.begin(), 1);
@@ -291,6 +298,11 @@ Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir
     return Error{s.error()};
   }
   if (small) return scenes;
+  if (Status s = fromFile("stiff_arap", "stiff_cloth.yaml", {"material.model=arap"}, 0.2,
+                          "the stiff cloth with the ARAP material (for integrators that need it)");
+      !s) {
+    return Error{s.error()};
+  }
   if (!bag.empty()) {
     Expected<RecordedRun> run = readRun(bag);
     if (!run) return Error{run.error()};

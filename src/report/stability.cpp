@@ -6,7 +6,7 @@ namespace fem_cloth::report {
 
 const std::vector<std::string>& verdictNames() {
   static const std::vector<std::string> names = {"stable",      "recovered", "failed",
-                                                 "unsupported", "too_slow",  "non_finite"};
+                                                 "n/a", "too_slow",  "non_finite"};
   return names;
 }
 
@@ -31,16 +31,17 @@ CellResult runCell(const Cell& cell, int n, double wallBudget) {
     case RunResult::Outcome::NonFinite: c.verdict = "non_finite"; break;
     case RunResult::Outcome::OverBudget: c.verdict = "too_slow"; break;
     case RunResult::Outcome::BuildError: {
-      // Unsupported when the same scene builds with backward Euler: then this integrator refuses
-      // the material; otherwise the case itself is refused (a clear error, so "failed").
+      // n/a when this integrator refuses the scene's settings at load (projective dynamics takes
+      // ARAP cloth only) while backward Euler accepts them: the cell does not apply. Otherwise
+      // the case itself is refused (e.g. Neo-Hookean starting inverted): a clear error, "failed".
       Cell probe = cell;
       probe.integrator = "backward_euler";
-      bool builds = false;
+      const bool refusedHere = !parseScene(*doc);
+      bool loadsWithBackwardEuler = false;
       if (Expected<YAML::Node> probeDoc = cellScene(probe, n)) {
-        Expected<Scene> scene = parseScene(*probeDoc);
-        builds = scene && buildSimulation(*scene).ok();
+        loadsWithBackwardEuler = parseScene(*probeDoc).ok();
       }
-      c.verdict = builds ? "unsupported" : "failed";
+      c.verdict = refusedHere && loadsWithBackwardEuler ? "n/a" : "failed";
       break;
     }
   }

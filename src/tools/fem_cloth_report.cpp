@@ -8,9 +8,9 @@
 // repeats) and the error against a much finer BDF2 run (cached on disk, keyed by the scene text)
 // at matched times, relative to the cloth size. Convergence orders from the error against dt.
 // Stability: material x stretch stiffness x integrator x dt x extreme case, each cell classified
-// stable / recovered (rollbacks) / failed (with the error) / unsupported (the integrator refuses
-// the material) / too slow (over the cell's wall-time budget) / non-finite (a bug: must never
-// happen).
+// stable / recovered (rollbacks) / failed (with the error) / n/a (the integrator refuses the
+// material or mesh at load: projective dynamics takes ARAP cloth only) / too slow (over the
+// cell's wall-time budget) / non-finite (a bug: must never happen).
 //
 // Writes CSV files to --out (scripts/report plots them): work_precision.csv, error_over_time.csv,
 // references.csv, orders.csv, targets.csv, stability.csv and summary.txt (also printed), and
@@ -327,7 +327,7 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
         Expected<RunRequest> req = request(overrides);
         std::vector<double> walls;
         if (!req) {
-          row.status = "unsupported";
+          row.status = "n/a";
           row.error = req.error();
         } else {
           double spent = 0.0;
@@ -344,7 +344,7 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
           switch (row.run.outcome) {
             case RunResult::Outcome::Completed: row.status = "ok"; break;
             // The reference built, so the scene is sound: the integrator refuses it.
-            case RunResult::Outcome::BuildError: row.status = "unsupported"; break;
+            case RunResult::Outcome::BuildError: row.status = "n/a"; break;
             default: row.status = outcomeName(row.run.outcome);
           }
           if (row.run.outcome == RunResult::Outcome::NonFinite) nonFinite = true;

@@ -102,7 +102,7 @@ TEST_F(ReportTool, EveryIntegratorIsMeasuredOnEveryScene) {
       for (const auto& r : rows) {
         if (r.at("scene") != scene || r.at("integrator") != integrator) continue;
         ++found;
-        EXPECT_TRUE(r.at("status") == "ok" || r.at("status") == "unsupported")
+        EXPECT_TRUE(r.at("status") == "ok" || r.at("status") == "n/a")
             << scene << " " << integrator << ": " << r.at("status") << " " << r.at("error");
         if (r.at("status") == "ok") {
           EXPECT_GT(std::stod(r.at("wall_s")), 0.0);
@@ -126,10 +126,10 @@ TEST_F(ReportTool, StabilityCellsAreClassifiedAndNeverNonFinite) {
   const auto cells = readCsv(out_ + "/stability.csv");
   // The small matrix: 2 cases x 2 materials x 1 stiffness x every integrator x 2 steps.
   EXPECT_EQ(cells.size(), 2u * 2u * 1u * integratorNames().size() * 2u);
-  const std::set<std::string> verdicts = {"stable", "recovered", "failed", "unsupported", "too_slow"};
+  const std::set<std::string> verdicts = {"stable", "recovered", "failed", "n/a", "too_slow"};
   for (const auto& c : cells) {
     EXPECT_TRUE(verdicts.count(c.at("verdict"))) << c.at("verdict");
-    if (c.at("verdict") == "failed" || c.at("verdict") == "unsupported") {
+    if (c.at("verdict") == "failed" || c.at("verdict") == "n/a") {
       EXPECT_FALSE(c.at("error").empty()) << c.at("case") << " " << c.at("integrator");
     }
     if (c.at("verdict") == "stable") {

@@ -33,6 +33,8 @@ struct Variant {
 ///   backward_euler:   newton_tolerance 1e-3 (default) and 1e-2;
 ///   bdf2:             newton_tolerance 1e-3 (default) and 1e-5;
 ///   xpbd:             iterations 1, 4, 16, 64;
+///   projective_dynamics: iterations 5, 10 (default), 20, and 7 with Chebyshev rho 0.9 (the fast
+///                     scene's setting); it runs only on the ARAP scenes (n/a elsewhere);
 ///   any other name (integrators added later): its defaults and iterations 4, 16, 64 — the key
 ///                     every iterative solver of the scene format reads.
 /// `small` keeps one setting per integrator (the smoke test).
@@ -63,6 +65,7 @@ struct AccuracyScene {
 ///   stiff_cloth:   config/stiff_cloth.yaml (100x stiffer, nu = 0.45, undamped), the first 0.2 s;
 ///   hanging_arap:  hanging_cloth with the ARAP material, so that integrators that support only
 ///                  ARAP (projective dynamics) are compared on the same footing;
+///   stiff_arap:    stiff_cloth with the ARAP material, likewise;
 ///   grasp:         the recorded grasp-and-lift `bag` (test/data/small_grasp.bag: a 9 x 9 cloth
 ///                  grasped by two corners that follow a gripper frame), its commands re-applied
 ///                  to every integrator and dt as the node applies them, 3.12 s;
@@ -73,8 +76,8 @@ struct AccuracyScene {
 ///                  (1 N/m) released from a smooth stretch, 0.25 s — whose every mode the tested
 ///                  steps resolve: the asymptotic orders show there.
 /// dts: 1/30 to 1/480 s (hanging, stiff), 0.04 to 0.0025 s (grasp: its commands are stamped on
-/// a 0.01 s grid), 1/80 to 1/640 s (smooth). `small`: 9 x 9, 0.2 s, three dts, no grasp, no
-/// long or smooth scene.
+/// a 0.01 s grid), 1/80 to 1/640 s (smooth). `small`: 9 x 9, 0.2 s, three dts, no stiff_arap,
+/// grasp, long or smooth scene.
 Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir,
                                                     const std::string& bag, bool small);
 

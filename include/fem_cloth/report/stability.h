@@ -12,10 +12,11 @@ namespace fem_cloth::report {
 /// The verdicts, in the order tables list them:
 ///   stable       every step succeeded at the first attempt;
 ///   recovered    every step succeeded, some after rollbacks (RunResult::rollbacks says how many);
-///   failed       a step failed after its retries, or the case does not build with any
-///                integrator (e.g. Neo-Hookean with inverted elements): the error says why;
-///   unsupported  the scene builds with backward Euler but not with this integrator (it refuses
-///                the material);
+///   failed       a step failed after its retries, or the case does not build with backward
+///                Euler either (e.g. Neo-Hookean with inverted elements): the error says why;
+///   n/a          this integrator refuses the cell's settings when the scene is loaded while
+///                backward Euler accepts them (projective dynamics with a material other than
+///                ARAP, or on a planar sheet): the cell does not apply; the error says why;
 ///   too_slow     stopped at the cell's wall-time budget;
 ///   non_finite   a non-finite state or energy was seen: a bug, which must never happen.
 const std::vector<std::string>& verdictNames();
