@@ -1,0 +1,666 @@
+// fem_cloth_report: the accuracy and stability report (docs/accuracy.md).
+//
+//   fem_cloth_report [--out DIR] [--cache DIR] [--small] [--study all|work-precision|stability]
+//                    [--integrators a,b] [--scenes a,b] [--cases a,b] [--materials a,b]
+//
+// Work precision: every integrator (integratorNames(), so new ones join automatically) on the
+// standard scenes over a range of time steps and settings; wall time of the steps (median of
+// repeats) and the error against a much finer BDF2 run (cached on disk, keyed by the scene text)
+// at matched times, relative to the cloth size. Convergence orders from the error against dt.
+// Stability: material x stretch stiffness x integrator x dt x extreme case, each cell classified
+// stable / recovered (rollbacks) / failed (with the error) / n/a (the integrator refuses the
+// material or mesh at load: projective dynamics takes ARAP cloth only) / too slow (over the
+// cell's wall-time budget) / non-finite (a bug: must never happen).
+//
+// Writes CSV files to --out (scripts/report plots them): work_precision.csv, error_over_time.csv,
+// references.csv, orders.csv, targets.csv, stability.csv and summary.txt (also printed), and
+// every scene it runs to scenes/*.yaml (fem_cloth_sim --scene runs any of them by hand).
+// Exit status: 0 done, 2 bad command line or inputs, 3 a reference run failed, 4 a cell or run
+// was non-finite.
+#include <CLI/CLI.hpp>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <atomic>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "fem_cloth/core/materials/materials.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/io/scene_yaml.h"
+#include "fem_cloth/report/cases.h"
+#include "fem_cloth/report/run.h"
+#include "fem_cloth/report/stability.h"
+
+using namespace fem_cloth;
+using namespace fem_cloth::report;
+
+namespace {
+
+struct Options {
+  std::string out = "output/report";
+  std::string cache;  // default: <out>/cache
+  std::string configDir = FEM_CLOTH_CONFIG_DIR;
+  std::string bag = FEM_CLOTH_GRASP_BAG;
+  bool small = false;
+  std::string study = "all";
+  std::vector<std::string> integrators, scenes, cases, materials, stiffness;
+  std::vector<double> dts;  // stability: only these steps
+  std::vector<std::string> overrides;  // work precision: key=value on every scene
+  int jobs = 1;             // stability: cells run in parallel
+  int repeats = 3;
+  double repeatBudget = 2.0;
+  double referenceResolution = 0.25;
+  double duration = 0.0;  // work precision: simulated time of every scene (0: the scene's own)  // reference step / CFL bound (h omega_max = 0.5)  // s: no further repeats once a setting has run this long
+  // s of stepping per stability cell: a cell that needs more is "too_slow" (for 0.1-0.15 s of a
+  // 9 x 9 cloth, a real-time factor below 1/100).
+  double cellBudget = 15.0;
+  int grid = 9;               // vertices per side of the stability cases
+  bool quiet = false;
+};
+
+std::vector<std::string> splitList(const std::vector<std::string>& items) {
+  std::vector<std::string> out;
+  for (const std::string& item : items) {
+    std::stringstream s(item);
+    for (std::string part; std::getline(s, part, ',');) {
+      if (!part.empty()) out.push_back(part);
+    }
+  }
+  return out;
+}
+
+bool selected(const std::vector<std::string>& filter, const std::string& name) {
+  return filter.empty() || std::find(filter.begin(), filter.end(), name) != filter.end();
+}
+
+std::string csvText(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"') q += '"';
+    q += c == '\n' ? ' ' : c;
+  }
+  return q + "\"";
+}
+
+std::string num(double v, int precision = 6) {
+  std::ostringstream s;
+  s << std::setprecision(precision) << v;
+  return s.str();
+}
+
+// "0.01", "1e-04" when short as a decimal, else "1/120".
+std::string dtName(double dt) {
+  if (std::abs(dt * 1e4 - std::round(dt * 1e4)) < 1e-9) return num(dt, 4);
+  const double inverse = 1.0 / dt;
+  if (std::abs(inverse - std::round(inverse)) < 1e-6 * inverse) {
+    return "1/" + std::to_string(std::llround(inverse));
+  }
+  return num(dt, 4);
+}
+
+// A progress line on stderr: done / total weight (steps to simulate), ETA from the rate so far.
+class Progress {
+ public:
+  Progress(std::string phase, double totalWeight, bool enabled)
+      : phase_(std::move(phase)), total_(totalWeight), enabled_(enabled),
+        tty_(isatty(STDERR_FILENO) != 0), start_(std::chrono::steady_clock::now()), last_(start_) {}
+  void update(double doneWeight, int doneItems, int totalItems, const std::string& what) {
+    if (!enabled_) return;
+    const auto now = std::chrono::steady_clock::now();
+    const bool finished = doneItems == totalItems;
+    if (!finished && std::chrono::duration<double>(now - last_).count() < (tty_ ? 0.5 : 15.0)) return;
+    last_ = now;
+    const double wall = std::chrono::duration<double>(now - start_).count();
+    const double f = total_ > 0.0 ? std::min(doneWeight / total_, 1.0) : 1.0;
+    const double eta = f > 0.0 ? wall * (1.0 - f) / f : 0.0;
+    std::fprintf(stderr, "%s%s: %d / %d (%3.0f%%), %.0f s, ETA %.0f s  %-48.48s%s", tty_ ? "\r" : "",
+                 phase_.c_str(), doneItems, totalItems, 100.0 * f, wall, eta, what.c_str(),
+                 tty_ ? "" : "\n");
+    dirty_ = tty_;
+  }
+  ~Progress() {
+    if (dirty_) std::fprintf(stderr, "\n");
+  }
+
+ private:
+  std::string phase_;
+  double total_;
+  bool enabled_, tty_, dirty_ = false;
+  std::chrono::steady_clock::time_point start_, last_;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+struct WorkPrecisionRow {
+  std::string scene, label, integrator;
+  double dt = 0.0;
+  std::string status, error;
+  double wall = 0.0;
+  int repeats = 0;
+  RunResult run;
+  PositionErrors errors;
+};
+
+// ------------------------------------------------------------------------------------------------
+// Work precision
+// ------------------------------------------------------------------------------------------------
+int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
+  Expected<std::vector<AccuracyScene>> scenes = accuracyScenes(opt.configDir, opt.bag, opt.small);
+  if (!scenes) {
+    std::cerr << "fem_cloth_report: " << scenes.error() << '\n';
+    return 2;
+  }
+  std::vector<std::string> integrators;
+  for (const std::string& name : integratorNames()) {
+    if (selected(opt.integrators, name)) integrators.push_back(name);
+  }
+  const std::vector<Variant> variants = workPrecisionVariants(integrators, opt.small);
+  const std::string cache = opt.cache.empty() ? opt.out + "/cache" : opt.cache;
+
+  std::ofstream wp(opt.out + "/work_precision.csv"), overTime(opt.out + "/error_over_time.csv"),
+      refs(opt.out + "/references.csv"), orders(opt.out + "/orders.csv"),
+      targets(opt.out + "/targets.csv");
+  wp << "scene,label,integrator,dt,status,wall_s,repeats,steps,substeps,newton_iterations,"
+        "rollbacks,rms_end,max_end,rms_over_time,max_over_time,balance_end,balance_max_abs,"
+        "energy_scale_j,max_stretch,max_stretch_reference,error\n";
+  overTime << "scene,label,dt,t,rms,max\n";
+  refs << "scene,description,dt,cfl_bound_s,omega_max,newton_tolerance,duration,samples,cloth_size_m,wall_s,cached,key,"
+          "check_dt,check_rms_end,check_rms_over_time,check_max_over_time,max_stretch,balance_end\n";
+  orders << "scene,label,integrator,points,order_rms_end,order_rms_over_time,order_finest,"
+            "pairwise_rms_end\n";
+  targets << "scene,target,label,integrator,dt,wall_s,rms_over_time\n";
+
+  std::vector<AccuracyScene> chosen;
+  for (AccuracyScene& s : *scenes) {
+    if (opt.duration > 0.0) s.duration = opt.duration;
+    if (selected(opt.scenes, s.name)) chosen.push_back(s);
+  }
+  // The reference: BDF2 with a tight Newton tolerance and a step that resolves the fastest mode
+  // of the mesh (a quarter of the CFL bound 2 / omega_max, so h omega_max <= 0.5) and is at
+  // least 8x finer than the finest tested step; and the same at twice its step, whose
+  // difference from it bounds the reference's own error. Its steps per sample are a multiple of
+  // 2 q, q the command steps per sample, so that the reference and its check both sample at the
+  // same times and apply every recorded command at its stamp.
+  std::map<std::string, std::pair<double, double>> referenceSteps;  // scene: (dt, CFL bound)
+  for (const AccuracyScene& s : chosen) {
+    std::vector<std::string> overrides = opt.overrides;
+    overrides.push_back("integrator.name=bdf2");
+    Expected<YAML::Node> probe = withOverrides(s.document, overrides);
+    Expected<double> cfl = probe ? cflBound(*probe) : Expected<double>(Error{probe.error()});
+    if (!cfl) {
+      std::cerr << "fem_cloth_report: " << s.name << ": " << cfl.error() << '\n';
+      return 2;
+    }
+    const double target = std::min(s.referenceDt, opt.referenceResolution * *cfl);
+    const double q = s.commandGrid > 0.0 ? std::round(s.sampleInterval / s.commandGrid) : 1.0;
+    const double perSample = 2.0 * q * std::ceil(s.sampleInterval / target / (2.0 * q) - 1e-9);
+    referenceSteps[s.name] = {s.sampleInterval / perSample, *cfl};
+  }
+  double totalWeight = 0.0;
+  int totalItems = 0;
+  for (const AccuracyScene& s : chosen) {
+    for (double dt : s.dts) {
+      if (!wholeSteps(s.sampleInterval, dt) || !wholeSteps(s.duration, s.sampleInterval) ||
+          (s.commandGrid > 0.0 && ((!wholeSteps(s.commandGrid, dt) && !wholeSteps(dt, s.commandGrid)) ||
+                                   !wholeSteps(s.sampleInterval, s.commandGrid)))) {
+        std::cerr << "fem_cloth_report: scene " << s.name << ": dt = " << dt << " s must divide the "
+                  << "sample interval " << s.sampleInterval << " s and divide or be a multiple of its "
+                  << "command grid; the sample interval must divide the duration\n";
+        return 2;
+      }
+    }
+    // The reference and its check at twice its step.
+    totalWeight += 1.5 * s.duration / referenceSteps[s.name].first;
+    totalItems += 2;
+    std::set<std::string> seen;
+    for (const Variant& variant : variants) {
+      if (s.defaultSettingsOnly && !seen.insert(variant.integrator).second) continue;
+      for (double dt : s.dts) {
+        totalWeight += s.duration / dt;
+        ++totalItems;
+      }
+    }
+  }
+  Progress progress("work precision", totalWeight, !opt.quiet);
+  double doneWeight = 0.0;
+  int doneItems = 0;
+  std::vector<WorkPrecisionRow> rows;
+
+  for (const AccuracyScene& s : chosen) {
+    std::shared_ptr<const RecordedRun> commands;
+    double recordedDt = 0.0;
+    if (!s.commandsBag.empty()) {
+      Expected<RecordedRun> run = readRun(s.commandsBag);
+      if (!run) {
+        std::cerr << "fem_cloth_report: " << run.error() << '\n';
+        return 2;
+      }
+      commands = std::make_shared<const RecordedRun>(std::move(run).value());
+      recordedDt = s.document["integrator"]["dt"].as<double>(0.01);
+    }
+    auto request = [&](const std::vector<std::string>& overrides) -> Expected<RunRequest> {
+      std::vector<std::string> all = opt.overrides;
+      all.insert(all.end(), overrides.begin(), overrides.end());
+      all.push_back(setting("duration", s.duration));
+      Expected<YAML::Node> doc = withOverrides(s.document, all);
+      if (!doc) return Error{doc.error()};
+      RunRequest r;
+      r.scene = *doc;
+      r.commands = commands;
+      r.recordedDt = recordedDt;
+      r.duration = s.duration;
+      r.sampleInterval = s.sampleInterval;
+      return r;
+    };
+    const double cfl = referenceSteps.at(s.name).second;
+    const double referenceDt = referenceSteps.at(s.name).first;
+    std::optional<Reference> reference;
+    std::vector<double> checkErrors;
+    for (const double refDt : {referenceDt, 2.0 * referenceDt}) {
+      progress.update(doneWeight, doneItems, totalItems, s.name + " reference dt " + num(refDt, 3));
+      Expected<RunRequest> req = request({"integrator.name=bdf2", setting("integrator.dt", refDt),
+                                          setting("integrator.newton_tolerance", s.referenceTolerance)});
+      if (!req) {
+        std::cerr << "fem_cloth_report: " << s.name << ": " << req.error() << '\n';
+        return 2;
+      }
+      Expected<Reference> ref = cachedReference(*req, s.commandsBag, cache);
+      if (!ref) {
+        std::cerr << "fem_cloth_report: " << s.name << ": " << ref.error() << '\n';
+        return 3;
+      }
+      doneWeight += s.duration / refDt;
+      ++doneItems;
+      if (!reference) {
+        reference = std::move(ref).value();
+      } else {
+        const PositionErrors check = positionErrors(ref->run.samples, reference->run.samples,
+                                                    reference->run.dim, reference->run.clothSize);
+        checkErrors = {check.rmsEnd, check.rmsOverTime, check.maxOverTime};
+        for (std::size_t k = 0; k < check.rms.size(); ++k) {
+          overTime << s.name << ",reference check," << num(2.0 * referenceDt, 17) << ','
+                   << num(reference->run.sampleTimes[k], 10) << ',' << num(check.rms[k]) << ','
+                   << num(check.max[k]) << '\n';
+        }
+      }
+    }
+    const RunResult& R = reference->run;
+    refs << s.name << ',' << csvText(s.description) << ',' << num(referenceDt, 17) << ','
+         << num(cfl) << ',' << num(2.0 / cfl) << ',' << s.referenceTolerance << ',' << s.duration << ',' << R.samples.size() << ','
+         << num(R.clothSize) << ',' << num(R.wall) << ',' << (reference->cached ? 1 : 0) << ','
+         << reference->key << ',' << num(2 * referenceDt, 17) << ',' << num(checkErrors[0]) << ','
+         << num(checkErrors[1]) << ',' << num(checkErrors[2]) << ',' << num(R.maxStretch) << ','
+         << num(R.balanceEnd) << '\n';
+    refs.flush();
+
+    std::set<std::string> seenIntegrators;
+    for (const Variant& variant : variants) {
+      // A scene that wants the default settings runs the first variant of each integrator.
+      if (s.defaultSettingsOnly && !seenIntegrators.insert(variant.integrator).second) continue;
+      for (double dt : s.dts) {
+        WorkPrecisionRow row;
+        row.scene = s.name;
+        row.label = variant.label;
+        row.integrator = variant.integrator;
+        row.dt = dt;
+        progress.update(doneWeight, doneItems, totalItems, s.name + " " + variant.label + " dt " + dtName(dt));
+        std::vector<std::string> overrides = variant.overrides;
+        overrides.push_back(setting("integrator.dt", dt));
+        Expected<RunRequest> req = request(overrides);
+        std::vector<double> walls;
+        if (!req) {
+          row.status = "n/a";
+          row.error = req.error();
+        } else {
+          double spent = 0.0;
+          do {
+            RunResult r = runScene(*req);
+            walls.push_back(r.wall);
+            spent += r.wall;
+            if (walls.size() == 1) row.run = std::move(r);
+          } while (row.run.outcome == RunResult::Outcome::Completed &&
+                   static_cast<int>(walls.size()) < opt.repeats && spent < opt.repeatBudget);
+          row.wall = median(walls);
+          row.repeats = static_cast<int>(walls.size());
+          row.error = row.run.error;
+          switch (row.run.outcome) {
+            case RunResult::Outcome::Completed: row.status = "ok"; break;
+            // The reference built, so the scene is sound: the integrator refuses it.
+            case RunResult::Outcome::BuildError: row.status = "n/a"; break;
+            default: row.status = outcomeName(row.run.outcome);
+          }
+          if (row.run.outcome == RunResult::Outcome::NonFinite) nonFinite = true;
+        }
+        row.errors = positionErrors(row.run.samples, R.samples, R.dim, R.clothSize);
+        const double scale = row.run.weightScale > 0.0 ? row.run.weightScale : R.weightScale;
+        wp << row.scene << ',' << csvText(row.label) << ',' << row.integrator << ',' << num(dt, 17)
+           << ',' << row.status << ',' << num(row.wall) << ',' << row.repeats << ','
+           << row.run.steps << ',' << row.run.substeps << ',' << row.run.newtonIterations << ','
+           << row.run.rollbacks << ',' << num(row.errors.rmsEnd) << ',' << num(row.errors.maxEnd)
+           << ',' << num(row.errors.rmsOverTime) << ',' << num(row.errors.maxOverTime) << ','
+           << num(row.run.balanceEnd / scale) << ',' << num(row.run.balanceMaxAbs / scale) << ','
+           << num(scale) << ',' << num(row.run.maxStretch) << ',' << num(R.maxStretch) << ','
+           << csvText(row.error) << '\n';
+        wp.flush();
+        for (std::size_t k = 0; k < row.errors.rms.size(); ++k) {
+          overTime << row.scene << ',' << csvText(row.label) << ',' << num(dt, 17) << ','
+                   << num(R.sampleTimes[k], 10) << ',' << num(row.errors.rms[k]) << ','
+                   << num(row.errors.max[k]) << '\n';
+        }
+        doneWeight += s.duration / dt;
+        ++doneItems;
+        rows.push_back(std::move(row));
+      }
+    }
+    progress.update(doneWeight, doneItems, totalItems, s.name + " done");
+  }
+
+  // Orders: slope of log error against log dt, over all completed runs of a setting, and over
+  // its three finest steps (closest to the asymptotic range).
+  summary << "== Convergence orders (slope of log error against log dt; RMS position error)\n";
+  summary << std::left << std::setw(14) << "scene" << std::setw(26) << "setting" << std::setw(10)
+          << "at end" << std::setw(12) << "over time" << std::setw(14) << "finest 3"
+          << "pairwise (coarse to fine)\n";
+  for (const AccuracyScene& s : chosen) {
+    for (const Variant& variant : variants) {
+      std::vector<double> dts, end, overall;
+      for (const WorkPrecisionRow& r : rows) {
+        if (r.scene != s.name || r.label != variant.label || r.status != "ok") continue;
+        dts.push_back(r.dt);
+        end.push_back(r.errors.rmsEnd);
+        overall.push_back(r.errors.rmsOverTime);
+      }
+      if (dts.empty()) continue;
+      const double pEnd = fittedOrder(dts, end), pTime = fittedOrder(dts, overall);
+      const std::size_t k = dts.size() >= 3 ? dts.size() - 3 : 0;
+      const double pFine = fittedOrder(std::vector<double>(dts.begin() + k, dts.end()),
+                                       std::vector<double>(end.begin() + k, end.end()));
+      std::string pairwise;
+      for (std::size_t i = 1; i < dts.size(); ++i) {
+        pairwise += (i > 1 ? " " : "") + num(std::log(end[i - 1] / end[i]) / std::log(dts[i - 1] / dts[i]), 3);
+      }
+      orders << s.name << ',' << csvText(variant.label) << ',' << variant.integrator << ','
+             << dts.size() << ',' << num(pEnd, 4) << ',' << num(pTime, 4) << ',' << num(pFine, 4)
+             << ',' << pairwise << '\n';
+      summary << std::left << std::setw(14) << s.name << std::setw(26) << variant.label
+              << std::setw(10) << num(pEnd, 3) << std::setw(12) << num(pTime, 3) << std::setw(14)
+              << num(pFine, 3) << pairwise << '\n';
+    }
+  }
+
+  // The ranking: for each error target, the cheapest run of each setting that reaches it.
+  summary << "\n== Cheapest run reaching an RMS error over time (relative to the cloth size)\n";
+  for (const AccuracyScene& s : chosen) {
+    for (double target : {1e-1, 1e-2, 1e-3}) {
+      std::vector<const WorkPrecisionRow*> best;
+      for (const Variant& variant : variants) {
+        const WorkPrecisionRow* cheapest = nullptr;
+        for (const WorkPrecisionRow& r : rows) {
+          if (r.scene != s.name || r.label != variant.label || r.status != "ok") continue;
+          if (!(r.errors.rmsOverTime <= target)) continue;
+          if (cheapest == nullptr || r.wall < cheapest->wall) cheapest = &r;
+        }
+        if (cheapest) best.push_back(cheapest);
+      }
+      std::sort(best.begin(), best.end(), [](auto* a, auto* b) { return a->wall < b->wall; });
+      summary << s.name << ", error <= " << num(target) << ": ";
+      if (best.empty()) summary << "no run";
+      for (std::size_t i = 0; i < best.size(); ++i) {
+        const WorkPrecisionRow& r = *best[i];
+        targets << s.name << ',' << num(target) << ',' << csvText(r.label) << ',' << r.integrator
+                << ',' << num(r.dt, 17) << ',' << num(r.wall) << ',' << num(r.errors.rmsOverTime) << '\n';
+        if (i < 4) summary << (i ? "; " : "") << r.label << " dt " << dtName(r.dt) << " " << num(r.wall, 3) << " s";
+      }
+      summary << '\n';
+    }
+  }
+  summary << '\n';
+  return 0;
+}
+
+// ------------------------------------------------------------------------------------------------
+// Stability matrix
+// ------------------------------------------------------------------------------------------------
+struct CellRun {
+  Cell cell;
+  Stiffness level;
+  double duration = 0.0;
+  CellResult result;
+};
+
+int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
+  std::vector<std::string> cases, materials, integrators;
+  std::vector<Stiffness> levels;
+  std::vector<double> dts;
+  for (const std::string& c : extremeCaseNames()) {
+    if (selected(opt.cases, c)) cases.push_back(c);
+  }
+  for (const std::string& m : materialNames()) {
+    if (selected(opt.materials, m)) materials.push_back(m);
+  }
+  for (const std::string& i : integratorNames()) {
+    if (selected(opt.integrators, i)) integrators.push_back(i);
+  }
+  for (const Stiffness& l : stiffnessLevels()) {
+    if (selected(opt.stiffness, l.name)) levels.push_back(l);
+  }
+  for (double dt : stabilityDts()) {
+    if (opt.dts.empty() || std::any_of(opt.dts.begin(), opt.dts.end(),
+                                       [&](double d) { return std::abs(d - dt) <= 1e-9 * dt; })) {
+      dts.push_back(dt);
+    }
+  }
+  if (opt.small) {
+    // The smoke test: two cases, two materials, cotton, the two largest steps.
+    if (opt.cases.empty()) cases = {"pull_corner", "squash"};
+    if (opt.materials.empty()) materials = {"stvk", "neo_hookean"};
+    if (opt.stiffness.empty()) levels = {levels.front()};
+    if (opt.dts.empty()) dts = {1e-2, 1.0 / 30.0};
+  }
+  std::vector<CellRun> cells;
+  double totalWeight = 0.0;
+  for (const std::string& c : cases) {
+    Expected<YAML::Node> base = extremeCase(c, opt.grid);
+    if (!base) {
+      std::cerr << "fem_cloth_report: " << base.error() << '\n';
+      return 2;
+    }
+    const double duration = (*base)["duration"].as<double>();
+    for (double dt : dts) {
+      if (!wholeSteps(duration, dt)) {
+        std::cerr << "fem_cloth_report: case " << c << ": dt = " << dt << " s does not divide its "
+                  << "duration " << duration << " s\n";
+        return 2;
+      }
+    }
+    for (const std::string& material : materials) {
+      for (const Stiffness& level : levels) {
+        for (const std::string& integrator : integrators) {
+          for (double dt : dts) {
+            CellRun cell;
+            cell.cell = Cell{c, material, level.name, integrator, dt};
+            cell.level = level;
+            cell.duration = duration;
+            cells.push_back(cell);
+            totalWeight += duration / dt;
+          }
+        }
+      }
+    }
+  }
+
+  // Cells are independent simulations: --jobs workers take them in turn. Their wall times are
+  // only reported (a stability cell is not a timing measurement).
+  const int totalItems = static_cast<int>(cells.size());
+  Progress progress("stability", totalWeight, !opt.quiet);
+  std::mutex mutex;
+  std::atomic<std::size_t> next{0};
+  double doneWeight = 0.0;
+  int doneItems = 0;
+  auto worker = [&]() {
+    for (std::size_t i; (i = next++) < cells.size();) {
+      CellRun& c = cells[i];
+      c.result = runCell(c.cell, opt.grid, opt.cellBudget);
+      const std::lock_guard<std::mutex> lock(mutex);
+      doneWeight += c.duration / c.cell.dt;
+      ++doneItems;
+      progress.update(doneWeight, doneItems, totalItems,
+                      c.cell.caseName + " " + c.cell.material + " " + c.cell.stiffness + " " +
+                          c.cell.integrator + " dt " + dtName(c.cell.dt));
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int j = 1; j < opt.jobs; ++j) threads.emplace_back(worker);
+  worker();
+  for (std::thread& t : threads) t.join();
+
+  std::ofstream csv(opt.out + "/stability.csv");
+  csv << "case,material,stiffness,youngs_modulus,poisson_ratio,integrator,dt,verdict,steps,"
+         "total_steps,t_reached,rollbacks,max_substeps,substeps,newton_iterations,energy_growth,"
+         "min_j,min_j_end,max_stretch,wall_s,error\n";
+  std::map<std::string, int> counts;
+  std::map<std::string, std::map<std::string, int>> perIntegrator;
+  for (const CellRun& c : cells) {
+    const RunResult& r = c.result.run;
+    const std::string& verdict = c.result.verdict;
+    if (verdict == "non_finite") nonFinite = true;
+    ++counts[verdict];
+    ++perIntegrator[c.cell.integrator][verdict];
+    const std::uint64_t totalSteps = static_cast<std::uint64_t>(std::llround(c.duration / c.cell.dt));
+    csv << c.cell.caseName << ',' << c.cell.material << ',' << c.level.name << ','
+        << num(c.level.youngsModulus) << ',' << c.level.poissonRatio << ',' << c.cell.integrator
+        << ',' << num(c.cell.dt, 17) << ',' << verdict << ',' << r.steps << ',' << totalSteps
+        << ',' << num(r.simulated) << ',' << r.rollbacks << ',' << r.maxSubsteps << ','
+        << r.substeps << ',' << r.newtonIterations << ',' << num(r.energyGrowth) << ','
+        << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ','
+        << (std::isfinite(r.minJEnd) ? num(r.minJEnd) : "") << ',' << num(r.maxStretch) << ','
+        << num(r.wall) << ',' << csvText(r.error) << '\n';
+  }
+
+  const std::vector<std::string>& verdicts = verdictNames();
+  summary << "== Stability matrix: " << totalItems << " cells (" << cases.size() << " cases x "
+          << materials.size() << " materials x " << levels.size() << " stiffnesses x "
+          << integrators.size() << " integrators x " << dts.size() << " steps)\n";
+  summary << std::left << std::setw(20) << "";
+  for (const std::string& v : verdicts) summary << std::setw(13) << v;
+  summary << '\n' << std::setw(20) << "all";
+  for (const std::string& v : verdicts) summary << std::setw(13) << counts[v];
+  summary << '\n';
+  for (const std::string& i : integrators) {
+    summary << std::setw(20) << i;
+    for (const std::string& v : verdicts) summary << std::setw(13) << perIntegrator[i][v];
+    summary << '\n';
+  }
+  summary << '\n';
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{
+      "The fem_cloth accuracy and stability report (docs/accuracy.md): work precision and\n"
+      "convergence orders of every integrator on the standard scenes, and the stability matrix\n"
+      "on extreme cases. Writes CSV files and summary.txt to --out; scripts/report plots them."};
+  app.add_option("--out", opt.out, "output folder (default output/report)");
+  app.add_option("--cache", opt.cache, "reference cache folder (default <out>/cache)");
+  app.add_option("--config", opt.configDir, "folder of the standard scenes");
+  app.add_option("--bag", opt.bag, "the recorded grasp-and-lift whose commands drive the grasp scene ('' to skip)");
+  app.add_flag("--small", opt.small, "the small version (smoke test): small meshes, few runs and cells");
+  app.add_option("--study", opt.study, "all, work-precision or stability")
+      ->check(CLI::IsMember({"all", "work-precision", "stability"}));
+  app.add_option("--integrators", opt.integrators, "only these integrators (comma-separated)");
+  app.add_option("--scenes", opt.scenes, "only these work-precision scenes");
+  app.add_option("--cases", opt.cases, "only these stability cases");
+  app.add_option("--materials", opt.materials, "only these materials (stability)");
+  app.add_option("--stiffness", opt.stiffness, "only these stiffness levels (stability): cotton, 100x, 1000x");
+  app.add_option("--dts", opt.dts, "only these steps (stability; s)");
+  app.add_option("--reference-resolution", opt.referenceResolution,
+                 "reference step as a fraction of the scene's CFL bound 2/omega_max (default 0.25)");
+  app.add_option("--duration", opt.duration, "work precision: simulated time (s) of every scene");
+  app.add_option("--set", opt.overrides, "work precision: key.path=value on every scene (repeatable)");
+  app.add_option("--jobs,-j", opt.jobs, "stability cells run in parallel (default 1)")->check(CLI::PositiveNumber);
+  app.add_option("--repeats", opt.repeats, "timing repeats per run (median; fewer once a setting took 2 s)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--cell-budget", opt.cellBudget, "wall time (s) after which a stability cell stops");
+  app.add_option("--grid", opt.grid, "vertices per side of the stability cases (odd, >= 5)");
+  app.add_flag("--quiet,-q", opt.quiet, "no progress display");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::cerr << "fem_cloth_report: " << e.what() << " (see --help)\n";
+    return 2;
+  }
+  opt.integrators = splitList(opt.integrators);
+  opt.scenes = splitList(opt.scenes);
+  opt.cases = splitList(opt.cases);
+  opt.materials = splitList(opt.materials);
+  opt.stiffness = splitList(opt.stiffness);
+  for (const std::string& name : opt.integrators) {
+    if (!selected(integratorNames(), name)) {
+      std::cerr << "fem_cloth_report: --integrators: unknown integrator '" << name << "'\n";
+      return 2;
+    }
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(opt.out, ec);
+  if (ec) {
+    std::cerr << "fem_cloth_report: cannot create '" << opt.out << "': " << ec.message() << '\n';
+    return 2;
+  }
+  // Every scene of the report as a file, so that any run or cell can be repeated by hand:
+  //   fem_cloth_sim --scene <out>/scenes/pull_corner.yaml --set material.model=arap --dt 0.01
+  std::filesystem::create_directories(opt.out + "/scenes", ec);
+  for (const std::string& c : extremeCaseNames()) {
+    if (Expected<YAML::Node> doc = extremeCase(c, opt.grid)) {
+      std::ofstream(opt.out + "/scenes/" + c + ".yaml")
+          << "# stability case: " << extremeCaseDescription(c) << "\n" << sceneDocumentToString(*doc) << '\n';
+    }
+  }
+  if (opt.study != "stability") {
+    if (Expected<std::vector<AccuracyScene>> scenes = accuracyScenes(opt.configDir, opt.bag, opt.small)) {
+      for (const AccuracyScene& s : *scenes) {
+        std::ofstream(opt.out + "/scenes/" + s.name + ".yaml")
+            << "# work-precision scene: " << s.description << "\n" << sceneDocumentToString(s.document) << '\n';
+      }
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  std::ostringstream summary;
+  bool nonFinite = false;
+  if (opt.study != "stability") {
+    if (int status = workPrecision(opt, summary, nonFinite); status != 0) return status;
+  }
+  if (opt.study != "work-precision") {
+    if (int status = stability(opt, summary, nonFinite); status != 0) return status;
+  }
+  summary << "report: " << num(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 4)
+          << " s, outputs in " << opt.out << '\n';
+  std::ofstream(opt.out + "/summary.txt") << summary.str();
+  std::cout << summary.str();
+  if (nonFinite) {
+    std::cerr << "fem_cloth_report: a run or cell was non-finite (see the CSV files): a bug\n";
+    return 4;
+  }
+  return 0;
+}

@@ -1,0 +1,188 @@
+// fem_cloth_report run as a program: the small report end to end (the smoke test of
+// scripts/report), its outputs, the plot script, and a bad command line.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "../run_program.h"
+#include "fem_cloth/core/materials/materials.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/io/scene_yaml.h"
+
+using namespace fem_cloth;
+using namespace fem_cloth::test;
+
+namespace {
+
+// A CSV file as rows of named fields (quoted fields may hold commas).
+std::vector<std::map<std::string, std::string>> readCsv(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<std::map<std::string, std::string>> rows;
+  auto split = [](const std::string& line) {
+    std::vector<std::string> out;
+    std::string field;
+    bool quoted = false;
+    for (std::size_t i = 0; i < line.size(); ++i) {
+      const char c = line[i];
+      if (c == '"') {
+        if (quoted && i + 1 < line.size() && line[i + 1] == '"') {
+          field += '"';
+          ++i;
+        } else {
+          quoted = !quoted;
+        }
+      } else if (c == ',' && !quoted) {
+        out.push_back(field);
+        field.clear();
+      } else {
+        field += c;
+      }
+    }
+    out.push_back(field);
+    return out;
+  };
+  std::string line;
+  if (!std::getline(in, line)) return rows;
+  const std::vector<std::string> header = split(line);
+  while (std::getline(in, line)) {
+    const std::vector<std::string> fields = split(line);
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < header.size() && i < fields.size(); ++i) row[header[i]] = fields[i];
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+class ReportTool : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    scratch_ = new TempDir("fem_cloth_report_tool");
+    out_ = scratch_->path("report");
+    result_ = new ProgramResult(
+        runProgram(FEM_CLOTH_REPORT_EXE, {"--small", "--out", out_, "--jobs", "2", "-q"}, *scratch_));
+  }
+  static void TearDownTestSuite() {
+    delete result_;
+    delete scratch_;
+  }
+  static TempDir* scratch_;
+  static std::string out_;
+  static ProgramResult* result_;
+};
+TempDir* ReportTool::scratch_ = nullptr;
+std::string ReportTool::out_;
+ProgramResult* ReportTool::result_ = nullptr;
+
+}  // namespace
+
+TEST_F(ReportTool, SmallReportRunsEndToEnd) {
+  ASSERT_EQ(result_->status, 0) << result_->err;
+  for (const char* file : {"work_precision.csv", "error_over_time.csv", "references.csv",
+                           "orders.csv", "targets.csv", "stability.csv", "summary.txt"}) {
+    EXPECT_TRUE(std::filesystem::exists(out_ + "/" + file)) << file;
+  }
+  EXPECT_NE(result_->out.find("== Convergence orders"), std::string::npos) << result_->out;
+  EXPECT_NE(result_->out.find("== Stability matrix"), std::string::npos) << result_->out;
+}
+
+// Every integrator the scene format knows is in the study, without naming it here.
+TEST_F(ReportTool, EveryIntegratorIsMeasuredOnEveryScene) {
+  ASSERT_EQ(result_->status, 0) << result_->err;
+  const auto rows = readCsv(out_ + "/work_precision.csv");
+  ASSERT_FALSE(rows.empty());
+  std::set<std::string> scenes;
+  for (const auto& r : rows) scenes.insert(r.at("scene"));
+  for (const std::string& scene : scenes) {
+    for (const std::string& integrator : integratorNames()) {
+      int found = 0;
+      for (const auto& r : rows) {
+        if (r.at("scene") != scene || r.at("integrator") != integrator) continue;
+        ++found;
+        EXPECT_TRUE(r.at("status") == "ok" || r.at("status") == "n/a")
+            << scene << " " << integrator << ": " << r.at("status") << " " << r.at("error");
+        if (r.at("status") == "ok") {
+          EXPECT_GT(std::stod(r.at("wall_s")), 0.0);
+          EXPECT_GE(std::stod(r.at("rms_over_time")), std::stod(r.at("rms_end")));
+          EXPECT_GE(std::stod(r.at("max_end")), std::stod(r.at("rms_end")));
+        }
+      }
+      EXPECT_GT(found, 0) << scene << " " << integrator;
+    }
+  }
+  const auto references = readCsv(out_ + "/references.csv");
+  EXPECT_EQ(references.size(), scenes.size());
+  for (const auto& r : references) {
+    // The reference resolves the fastest mode: its step is at most a quarter of the CFL bound.
+    EXPECT_LE(std::stod(r.at("dt")), 0.25 * std::stod(r.at("cfl_bound_s")) * (1 + 1e-9)) << r.at("scene");
+  }
+}
+
+TEST_F(ReportTool, StabilityCellsAreClassifiedAndNeverNonFinite) {
+  ASSERT_EQ(result_->status, 0) << result_->err;
+  const auto cells = readCsv(out_ + "/stability.csv");
+  // The small matrix: 2 cases x 2 materials x 1 stiffness x every integrator x 2 steps.
+  EXPECT_EQ(cells.size(), 2u * 2u * 1u * integratorNames().size() * 2u);
+  const std::set<std::string> verdicts = {"stable", "recovered", "failed", "n/a", "too_slow"};
+  for (const auto& c : cells) {
+    EXPECT_TRUE(verdicts.count(c.at("verdict"))) << c.at("verdict");
+    if (c.at("verdict") == "failed" || c.at("verdict") == "n/a") {
+      EXPECT_FALSE(c.at("error").empty()) << c.at("case") << " " << c.at("integrator");
+    }
+    if (c.at("verdict") == "stable") {
+      EXPECT_EQ(c.at("rollbacks"), "0");
+    }
+    if (c.at("verdict") == "recovered") {
+      EXPECT_NE(c.at("rollbacks"), "0");
+    }
+  }
+}
+
+// Every scene the report ran is written out and reads back as a valid scene.
+TEST_F(ReportTool, WritesEveryScene) {
+  ASSERT_EQ(result_->status, 0) << result_->err;
+  int count = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(out_ + "/scenes")) {
+    Expected<Scene> scene = loadScene(entry.path().string());
+    EXPECT_TRUE(scene.ok()) << entry.path() << ": " << scene.error();
+    ++count;
+  }
+  EXPECT_GE(count, 5 + 3);  // the extreme cases and the small work-precision scenes
+}
+
+TEST_F(ReportTool, PlotScriptWritesThePngs) {
+  ASSERT_EQ(result_->status, 0) << result_->err;
+  const TempDir scratch("fem_cloth_report_plot");
+  const ProgramResult check = runProgram("/usr/bin/python3", {"-c", "import matplotlib"}, scratch);
+  if (check.status != 0) GTEST_SKIP() << "matplotlib is not installed";
+  const ProgramResult plot =
+      runProgram("/usr/bin/python3", {FEM_CLOTH_PLOT_REPORT_SCRIPT, out_, "--out", scratch.path("png")}, scratch);
+  ASSERT_EQ(plot.status, 0) << plot.err;
+  for (const char* png : {"work_precision.png", "convergence.png", "error_over_time.png", "stability.png"}) {
+    const std::string path = scratch.path("png") + "/" + png;
+    ASSERT_TRUE(std::filesystem::exists(path)) << png;
+    std::ifstream in(path, std::ios::binary);
+    char magic[4] = {};
+    in.read(magic, 4);
+    EXPECT_EQ(std::string(magic + 1, 3), "PNG") << png;
+  }
+}
+
+TEST(ReportToolCommandLine, BadOptionsAreOneErrorLine) {
+  const TempDir scratch("fem_cloth_report_cli");
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"--integrators", "leapfrog", "--out", scratch.path("a")},
+        std::vector<std::string>{"--study", "everything"},
+        std::vector<std::string>{"--no-such-option"}}) {
+    const ProgramResult r = runProgram(FEM_CLOTH_REPORT_EXE, args, scratch);
+    EXPECT_EQ(r.status, 2) << args[0];
+    EXPECT_EQ(r.err.rfind("fem_cloth_report: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  const ProgramResult help = runProgram(FEM_CLOTH_REPORT_EXE, {"--help"}, scratch);
+  EXPECT_EQ(help.status, 0);
+  EXPECT_NE(help.out.find("--small"), std::string::npos);
+}
