@@ -299,7 +299,8 @@ def plot_stability(cells, path):
         ax.tick_params(length=0)
     legend = [Patch(facecolor=v, label=k.replace("_", " ")) for k, v in VERDICT_COLORS.items()]
     fig.legend(handles=legend, loc="lower center", ncol=len(legend), fontsize=7, frameon=False)
-    fig.suptitle("Stability matrix (numbers: rollbacks of recovered cells; n/a: the integrator does not take the material; columns: dt in s)", fontsize=10)
+    fig.suptitle("Stability matrix (numbers: rollbacks of recovered cells; n/a: the integrator\n"
+                 "does not take the scene; columns: dt in s)", fontsize=10)
     fig.tight_layout(rect=(0, 0.03, 1, 0.97))
     fig.savefig(path, dpi=110)
     plt.close(fig)
