@@ -439,6 +439,8 @@ void ClothNode::run() {
     if (hasStartTime_ && timeMode_ == TimeMode::RealTime) wallEpoch_ = epoch;
     rtfWindowStart_ = ros::WallTime::now();
     meshPub_.publish(driver_->meshMessage());
+    // Latched: RViz started later, or a paused node, still shows where the obstacles are.
+    if (obstacleMarkerPub_) obstacleMarkerPub_.publish(driver_->obstacleMarkers());
     std_msgs::String sceneMsg;
     sceneMsg.data = sceneText_;
     scenePub_.publish(sceneMsg);
