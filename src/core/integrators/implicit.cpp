@@ -91,11 +91,45 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
   report.substeps = substeps;
   const double h = dt / substeps;
   const std::uint64_t checksBefore = input.contact ? input.contact->checks() : 0;
+  // A failed step is rolled back by the caller: so is the impact bookkeeping.
+  const int contactsAtStart = contactsBefore_, restartsAtStart = restartSubsteps_;
   for (int s = 0; s < substeps; ++s) {
-    const bool ok = substep(input, state, h, substeps - s, static_cast<double>(s) / substeps,
-                            static_cast<double>(s + 1) / substeps, pinForce, report);
+    const double from = static_cast<double>(s) / substeps, to = static_cast<double>(s + 1) / substeps;
+    // BDF2 assumes a smooth history. At an impact (contacts where the last substep had none) its
+    // velocity (3x' - 4x + x_) / 2h still carries the approach: a cloth stopped by a floor would
+    // leave it at about its impact speed. So an impact substep is redone as backward Euler, and
+    // so are the two after it, whose histories (x_, v_) still hold the impact.
+    if (state.xPrevious.size() != state.x.size()) contactsBefore_ = restartSubsteps_ = 0;  // new run
+    if (restartSubsteps_ > 0) {
+      state.historyDt = 0.0;  // backward Euler
+      --restartSubsteps_;
+    }
+    const bool watchImpact = scheme_ == ImplicitScheme::Bdf2 && input.contact != nullptr &&
+                             contactsBefore_ == 0;
+    const bool bdf2Substep =
+        watchImpact && state.hasHistory() && std::abs(state.historyDt - h) <= 1e-12 * h;
+    double dissipatedBefore = 0.0, contactWorkBefore = 0.0;
+    if (bdf2Substep) {
+      beforeImpact_ = state;
+      dissipatedBefore = report.dissipated;
+      contactWorkBefore = report.contactWork;
+    }
+    bool ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
+    if (ok && watchImpact && report.contacts > 0) {
+      if (bdf2Substep) {
+        state = beforeImpact_;
+        state.historyDt = 0.0;
+        report.dissipated = dissipatedBefore;
+        report.contactWork = contactWorkBefore;
+        ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
+      }
+      if (ok) restartSubsteps_ = 2;
+    }
+    if (ok) contactsBefore_ = report.contacts;
     if (input.contact) report.contactChecks = input.contact->checks() - checksBefore;
     if (!ok) {
+      contactsBefore_ = contactsAtStart;
+      restartSubsteps_ = restartsAtStart;
       report.ok = false;
       return report;
     }

@@ -83,6 +83,11 @@ class ImplicitIntegrator final : public Integrator {
   // Contact: Hessian entries outside the model's pattern, and the system that includes them.
   std::vector<Eigen::Triplet<double>> outsidePattern_;
   LinearSolver::Matrix contactExtra_, contactSystem_;
+  // BDF2 restarts at an impact (see step()): contacts after the last substep, backward Euler
+  // substeps still to take, and the state before the current substep.
+  int contactsBefore_ = 0;
+  int restartSubsteps_ = 0;
+  State beforeImpact_;
 };
 
 }  // namespace fem_cloth
