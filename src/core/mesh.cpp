@@ -203,6 +203,17 @@ double triangleArea(const Mesh& mesh, const VectorX& positions, Index t, bool si
   return 0.5 * n.norm();
 }
 
+double restBoundingBoxDiagonal(const Mesh& mesh) {
+  const int d = mesh.dim;
+  const VectorX& X = mesh.restPositions;
+  Eigen::VectorXd lo = X.head(d), hi = X.head(d);
+  for (Index i = 1; i < mesh.numVertices(); ++i) {
+    lo = lo.cwiseMin(X.segment(d * i, d));
+    hi = hi.cwiseMax(X.segment(d * i, d));
+  }
+  return (hi - lo).norm();
+}
+
 double triangleQuality(const Mesh& mesh, Index t) {
   const Triangle& tri = mesh.triangles[t];
   const Eigen::Vector3d a = vertex3(mesh, mesh.restPositions, tri[0]);

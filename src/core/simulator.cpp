@@ -25,13 +25,8 @@ Simulator::Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> i
   previousPinForce_ = VectorX::Zero(n);
   state_.x = model_->mesh().restPositions;
   state_.v = VectorX::Zero(n);
-  const VectorX& X = model_->mesh().restPositions;
-  Eigen::VectorXd lo = X.head(d), hi = X.head(d);
-  for (Index i = 1; i < model_->numVertices(); ++i) {
-    lo = lo.cwiseMin(X.segment(d * i, d));
-    hi = hi.cwiseMax(X.segment(d * i, d));
-  }
-  sizeScale_ = std::max(settings_.gravity.norm(), 9.81) * model_->totalMass() * (hi - lo).norm();
+  sizeScale_ = std::max(settings_.gravity.norm(), 9.81) * model_->totalMass() *
+               restBoundingBoxDiagonal(model_->mesh());
   snapshotInitial();
 }
 

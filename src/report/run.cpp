@@ -132,17 +132,8 @@ RunResult runScene(const RunRequest& request) {
   Simulator& sim = driver ? driver->simulator() : *plain->simulator;
   out.integrator = sim.integrator().name();
   out.dim = sim.dim();
-  {
-    const int d = sim.dim();
-    const VectorX& X = mesh->restPositions;
-    Eigen::VectorXd lo = X.head(d), hi = X.head(d);
-    for (Index i = 1; i < mesh->numVertices(); ++i) {
-      lo = lo.cwiseMin(X.segment(d * i, d));
-      hi = hi.cwiseMax(X.segment(d * i, d));
-    }
-    out.clothSize = (hi - lo).norm();
-    out.weightScale = sim.model().totalMass() * std::max(scene->gravity.norm(), 9.81) * out.clothSize;
-  }
+  out.clothSize = restBoundingBoxDiagonal(*mesh);
+  out.weightScale = sim.model().totalMass() * std::max(scene->gravity.norm(), 9.81) * out.clothSize;
 
   double heldEnergy = 0.0, work = 0.0, maxBalance = -std::numeric_limits<double>::infinity();
   // Measures the state after a step (or the initial one); false if anything is non-finite.

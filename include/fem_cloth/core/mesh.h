@@ -67,6 +67,8 @@ double triangleQuality(const Mesh& mesh, Index t);
 /// Area of triangle t at the given flat positions (m^2, unsigned; signed for planar meshes if
 /// `signedArea` is set: positive when counter-clockwise).
 double triangleArea(const Mesh& mesh, const VectorX& positions, Index t, bool signedArea = false);
+/// Diagonal of the axis-aligned bounding box of the rest positions (m): the size of the cloth.
+double restBoundingBoxDiagonal(const Mesh& mesh);
 
 /// Checks the mesh. Errors: dim not 2 or 3, non-finite coordinates, vertex index out of range,
 /// a triangle repeating a vertex, repeated triangles, triangles whose quality is below

@@ -136,12 +136,12 @@ class Simulator {
   VectorX initialPositions_;
   double initialTotal_ = 0.0;
   double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, dissipated_ = 0.0;
-  double sizeScale_ = 0.0;
+  double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.
   int currentSubsteps_ = 1;
   int cleanSteps_ = 0;
-  static constexpr int kRelaxAfter = 20;  // total weight x bounding-box diagonal of the rest mesh (J)
+  static constexpr int kRelaxAfter = 20;
   // What reset() restores.
   struct Initial {
     State state;

@@ -551,11 +551,12 @@ void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactSta
 void ContactModel::beginProjection(double f0, double f1) {
   setSubstepPoses(f0, f1);
   std::fill(projectedBy_.begin(), projectedBy_.end(), -1);
+  normalPush_.setZero(mesh_->numVertices());
+  correction_.setZero(mesh_->numDofs());
 }
 
 int ContactModel::projectOntoObstacles(VectorX& x, const VectorX& xStart,
-                                       const std::vector<char>& pinned, VectorX& normalPush,
-                                       VectorX& correction) {
+                                       const std::vector<char>& pinned) {
   pinned_ = &pinned;
   const double dHat = settings_.distance;
   int moved = 0;
@@ -587,8 +588,8 @@ int ContactModel::projectOntoObstacles(VectorX& x, const VectorX& xStart,
       const double push = dHat - sd.normal.dot(local - sd.closest);
       const Eigen::Vector3d move = poseEnd_[k].linear() * (push * sd.normal);
       x.segment<3>(3 * i) += move;
-      correction.segment<3>(3 * i) += move;
-      normalPush[i] += push;
+      correction_.segment<3>(3 * i) += move;
+      normalPush_[i] += push;
       projectedBy_[static_cast<std::size_t>(i)] = static_cast<int>(k);
       ++moved;
     }
@@ -596,8 +597,8 @@ int ContactModel::projectOntoObstacles(VectorX& x, const VectorX& xStart,
   return moved;
 }
 
-void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart,
-                                           const VectorX& normalPush, VectorX& correction) {
+// Coulomb friction on the vertices projected in this substep (finishProjection).
+void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart) {
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     const int k = projectedBy_[static_cast<std::size_t>(i)];
     if (k < 0 || !(obstacles_[static_cast<std::size_t>(k)].friction > 0.0)) continue;
@@ -611,15 +612,16 @@ void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart,
     if (slide == 0.0) continue;
     // Coulomb: the friction impulse is at most mu times the normal one (Bridson et al. 2002,
     // section 7.2): the tangential displacement shrinks by at most mu x normalPush, and stops.
-    const double removed = std::min(slide, obstacles_[static_cast<std::size_t>(k)].friction * normalPush[i]);
+    const double removed = std::min(slide, obstacles_[static_cast<std::size_t>(k)].friction * normalPush_[i]);
     const Eigen::Vector3d change = -removed / slide * tangential;
     x.segment<3>(3 * i) += change;
-    correction.segment<3>(3 * i) += change;
+    correction_.segment<3>(3 * i) += change;
   }
 }
 
-void ContactModel::finishProjection(const VectorX& x, const VectorX& xStart, const VectorX& correction,
-                                    double h, double massScale, ContactStats& stats) {
+void ContactModel::finishProjection(VectorX& x, const VectorX& xStart, double h, double massScale,
+                                    ContactStats& stats) {
+  applyProjectionFriction(x, xStart);
   std::vector<ObstacleWrench> wrench(obstacles_.size());
   int contacts = 0;
   double work = 0.0;
@@ -627,7 +629,7 @@ void ContactModel::finishProjection(const VectorX& x, const VectorX& xStart, con
     const int k = projectedBy_[static_cast<std::size_t>(i)];
     if (k < 0) continue;
     ++contacts;
-    const Eigen::Vector3d force = massScale * mass_[i] * vertex(correction, i) / (h * h);  // on the cloth
+    const Eigen::Vector3d force = massScale * mass_[i] * vertex(correction_, i) / (h * h);  // on the cloth
     work += force.dot(vertex(x, i) - vertex(xStart, i));
     const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true);
     wrench[static_cast<std::size_t>(k)].force -= force;

@@ -13,15 +13,6 @@ namespace {
 
 using Matrix = LinearSolver::Matrix;
 
-double boundingBoxDiagonal(const Mesh& mesh) {
-  const int d = mesh.dim;
-  Eigen::VectorXd lo = mesh.restPositions.head(d), hi = lo;
-  for (Index i = 1; i < mesh.numVertices(); ++i) {
-    lo = lo.cwiseMin(mesh.restPositions.segment(d * i, d));
-    hi = hi.cwiseMax(mesh.restPositions.segment(d * i, d));
-  }
-  return std::max((hi - lo).norm(), 1e-12);
-}
 constexpr double kStandardGravity = 9.81;  // m/s^2, scale of the round-off fallback's merit
 
 // Replaces the rows and columns of pinned DOFs by the identity scaled by the DOF's mass, so
@@ -277,7 +268,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     }
     return worst / c2_;
   };
-  if (sizeScale_ <= 0.0) sizeScale_ = boundingBoxDiagonal(model.mesh());
+  if (sizeScale_ <= 0.0) sizeScale_ = std::max(restBoundingBoxDiagonal(model.mesh()), 1e-12);
   const double stepTolerance = settings_.tolerance * sizeScale_ * h;  // m
   double relative = relativeResidualOf(g_);
   double lastStep = std::numeric_limits<double>::infinity();

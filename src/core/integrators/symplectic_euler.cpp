@@ -153,13 +153,10 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
       // Obstacles: project out to the contact distance with Coulomb friction, inelastically (the
       // velocity follows the corrected positions; Bridson et al. 2002, section 7).
       contact->beginProjection(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
-      normalPush_.setZero(model.numVertices());
-      correction_.setZero(n);
-      contact->projectOntoObstacles(state.x, positionStart_, pinned, normalPush_, correction_);
-      contact->applyProjectionFriction(state.x, positionStart_, normalPush_, correction_);
-      state.v += correction_ / h;
+      contact->projectOntoObstacles(state.x, positionStart_, pinned);
       ContactStats stats;
-      contact->finishProjection(state.x, positionStart_, correction_, h, 1.0 + h * alpha, stats);
+      contact->finishProjection(state.x, positionStart_, h, 1.0 + h * alpha, stats);
+      state.v += contact->projectionCorrection() / h;
       report.contacts = stats.contacts;
       report.minContactDistance = stats.minDistance;
       report.contactWork += stats.work;

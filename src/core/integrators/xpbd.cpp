@@ -94,7 +94,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
       }
     }
     for (auto& l : lambda_) std::fill(l.begin(), l.end(), 0.0);
-    if (contact != nullptr) beginContactSubstep(*contact, s, substeps, n);
+    if (contact != nullptr) beginContactSubstep(*contact, s, substeps);
     const bool lastSubstep = s + 1 == substeps;
     for (int it = 0; it < settings_.iterations; ++it) {
       const bool recordPinForce = lastSubstep && it + 1 == settings_.iterations;
@@ -157,7 +157,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
         }
       }
       // Obstacles as hard inequality constraints, projected after each sweep.
-      if (contact != nullptr) contact->projectOntoObstacles(state.x, xStart_, pinned, normalPush_, correction_);
+      if (contact != nullptr) contact->projectOntoObstacles(state.x, xStart_, pinned);
     }
     report.iterations += settings_.iterations;
     if (contact != nullptr) finishContactSubstep(*contact, state.x, h, dampedMass, report);
@@ -186,11 +186,9 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
 
 // The contact work lives out of line: inlined into step() it slowed the constraint sweeps of
 // scenes without contact by about 15% (fem_cloth_bench Step/xpbd), which must not pay for it.
-void Xpbd::beginContactSubstep(ContactModel& contact, int substep, int substeps, Index dofs) {
+void Xpbd::beginContactSubstep(ContactModel& contact, int substep, int substeps) {
   contact.beginProjection(static_cast<double>(substep) / substeps,
                           static_cast<double>(substep + 1) / substeps);
-  normalPush_.setZero(dofs / 3);
-  correction_.setZero(dofs);
   contactChecksBefore_ = contact.checks();
 }
 
@@ -198,9 +196,8 @@ void Xpbd::finishContactSubstep(ContactModel& contact, VectorX& x, double h, dou
                                 StepReport& report) {
   // Coulomb friction bounded by the substep's total normal correction (Macklin, Mueller,
   // Chentanez & Kim, "Unified Particle Physics for Real-Time Applications", 2014, section 6.1).
-  contact.applyProjectionFriction(x, xStart_, normalPush_, correction_);
   ContactStats stats;
-  contact.finishProjection(x, xStart_, correction_, h, dampedMass, stats);
+  contact.finishProjection(x, xStart_, h, dampedMass, stats);
   report.contacts = stats.contacts;
   report.minContactDistance = stats.minDistance;
   report.contactWork += stats.work;

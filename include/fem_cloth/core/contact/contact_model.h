@@ -125,23 +125,24 @@ class ContactModel {
   void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
 
   // --- Explicit steppers and XPBD (projection) -------------------------------------------------
-  /// Starts a projection substep over the fraction [f0, f1] of the step.
+  /// Starts a projection substep over the fraction [f0, f1] of the step: no vertex projected,
+  /// no correction yet.
   void beginProjection(double f0, double f1);
   /// Moves every free vertex closer than dHat to an obstacle (at the end of the substep) out to
   /// dHat along the obstacle's normal (a vertex inside: along the normal where its path from
-  /// xStart entered); adds the distance moved to normalPush (per vertex, m) and the displacement
-  /// to correction (per DOF, m). Returns how many vertices it moved.
-  int projectOntoObstacles(VectorX& x, const VectorX& xStart, const std::vector<char>& pinned,
-                           VectorX& normalPush, VectorX& correction);
-  /// Coulomb friction on the vertices projected in this substep: their displacement since xStart,
-  /// relative to the obstacle's surface, loses its tangential part up to mu x normalPush.
-  void applyProjectionFriction(VectorX& x, const VectorX& xStart, const VectorX& normalPush,
-                               VectorX& correction);
-  /// After a projection substep of length h: contact force massScale m correction / h^2 on each
-  /// vertex (massScale = 1 + h alpha with implicit mass damping alpha, which scales the inertia of
-  /// the update), its work over x - xStart, the obstacles' wrenches and the contact count.
-  void finishProjection(const VectorX& x, const VectorX& xStart, const VectorX& correction,
-                        double h, double massScale, ContactStats& stats);
+  /// xStart entered); adds the distance moved to the vertex's normal push (m) and the
+  /// displacement to the substep's correction (per DOF, m). Returns how many vertices it moved.
+  int projectOntoObstacles(VectorX& x, const VectorX& xStart, const std::vector<char>& pinned);
+  /// After a projection substep of length h: first Coulomb friction on the vertices projected in
+  /// it (their displacement since xStart, relative to the obstacle's surface, loses its
+  /// tangential part up to mu x normal push; x and the correction change accordingly), then the
+  /// contact force massScale m correction / h^2 on each vertex (massScale = 1 + h alpha with
+  /// implicit mass damping alpha, which scales the inertia of the update), its work over
+  /// x - xStart, the obstacles' wrenches and the contact count.
+  void finishProjection(VectorX& x, const VectorX& xStart, double h, double massScale,
+                        ContactStats& stats);
+  /// The displacement (per DOF, m) projection and friction gave x in this substep.
+  const VectorX& projectionCorrection() const { return correction_; }
 
   /// Distance evaluations so far (never reset: callers take differences).
   std::uint64_t checks() const { return checks_; }
@@ -158,6 +159,7 @@ class ContactModel {
     Eigen::Vector3d point = Eigen::Vector3d::Zero();   // contact point (for the torque)
   };
   void setSubstepPoses(double f0, double f1);
+  void applyProjectionFriction(VectorX& x, const VectorX& xStart);
   bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
   SignedDistance obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd);
   void addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
@@ -190,6 +192,8 @@ class ContactModel {
   double frictionEps_ = 0.0;  // m: eps_v / gamma
   VectorX frictionOrigin_;    // xc: relative displacements are measured from it
   std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none
+  VectorX normalPush_;            // per vertex: distance projected along normals this substep (m)
+  VectorX correction_;            // per DOF: displacement by projection and friction (m)
 
   std::vector<ObstacleWrench> wrenches_;
   std::uint64_t checks_ = 0;

@@ -76,8 +76,8 @@ class ImplicitIntegrator final : public Integrator {
   const VectorX* force_ = nullptr;
   double c2_ = 0.0, gamma_ = 0.0, alpha_ = 0.0, beta_ = 0.0;
   VectorX xhat_, xc_, forceTotal_;
-  std::vector<double> laggedStiffness_;
-  double sizeScale_ = 0.0;  // rest bounding-box diagonal (m)  // beta K0 values in the model's Hessian pattern
+  std::vector<double> laggedStiffness_;  // beta K0 values in the model's Hessian pattern
+  double sizeScale_ = 0.0;  // rest bounding-box diagonal (m)
   // Scratch, sized once.
   VectorX x_, g_, gElastic_, dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_;
   // Contact: Hessian entries outside the model's pattern, and the system that includes them.

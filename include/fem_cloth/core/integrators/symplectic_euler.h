@@ -54,7 +54,7 @@ class SymplecticEuler final : public Integrator {
   VectorX force_, gradient_, velocityStart_;
   VectorX shifted_, shiftedGradient_, dampingForce_;  // stiffness damping only
   VectorX invSqrtMass_, powerU_, powerW_, powerS_;    // power iteration (stableStep)
-  VectorX positionStart_, normalPush_, correction_;  // contact only
+  VectorX positionStart_;  // contact only
 };
 
 }  // namespace fem_cloth

@@ -43,14 +43,12 @@ class Xpbd final : public Integrator {
  private:
   void cacheStiffness(Model& model);
   // Contact per substep (only with obstacles); kept out of step() (see xpbd.cpp).
-  [[gnu::noinline]] void beginContactSubstep(ContactModel& contact, int substep, int substeps,
-                                             Index dofs);
+  [[gnu::noinline]] void beginContactSubstep(ContactModel& contact, int substep, int substeps);
   [[gnu::noinline]] void finishContactSubstep(ContactModel& contact, VectorX& x, double h,
                                               double dampedMass, StepReport& report);
 
   XpbdSettings settings_;
   VectorX xStart_, vStart_, inverseMass_;
-  VectorX normalPush_, correction_;  // contact only
   std::uint64_t contactChecksBefore_ = 0;
   const Model* stiffnessModel_ = nullptr;
   std::vector<std::vector<double>> stiffness_;  // per term: K_e, row-major, per element
