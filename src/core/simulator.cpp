@@ -70,6 +70,7 @@ Status Simulator::setInitialState(const VectorX& x, const VectorX& v) {
   state_.x = x;
   state_.v = v.size() == 0 ? VectorX::Zero(n) : v;
   state_.clearHistory();
+  energyNow_.reset();
   state_.time = 0.0;
   state_.step = 0;
   for (Index i = 0; i < n; ++i) {
@@ -82,6 +83,7 @@ Status Simulator::setInitialState(const VectorX& x, const VectorX& v) {
 
 void Simulator::reset() {
   state_ = initial_.state;
+  energyNow_.reset();
   pinned_ = initial_.pinned;
   pinTarget_ = initial_.pinTarget;
   pinVelocity_ = initial_.pinVelocity;
@@ -242,7 +244,8 @@ StepReport Simulator::step(double dt) {
   backup_ = state_;
   const double tolerance = integrator_->energyGrowthTolerance();
   const bool guard = settings_.energyGuard && tolerance > 0.0;
-  const double energyStart = guard ? mechanicalEnergy() : 0.0;
+  const double energyStart = !guard ? 0.0 : energyNow_ ? *energyNow_ : mechanicalEnergy();
+  double energyEnd = 0.0;
   const double scale = guard ? energyScale(energyStart) : 0.0;
   const int minSubsteps = std::max(settings_.minSubsteps, 1);
   if (currentSubsteps_ > minSubsteps && cleanSteps_ >= kRelaxAfter) {
@@ -260,7 +263,7 @@ StepReport Simulator::step(double dt) {
         inputWork += std::abs(externalForce_[i] * dx);
         if (pinned_[i]) inputWork += std::abs(pinForce_[i] * dx) + std::abs(previousPinForce_[i] * dx);
       }
-      const double energyEnd = mechanicalEnergy();
+      energyEnd = mechanicalEnergy();
       if (!(energyEnd <= energyStart + inputWork + tolerance * scale)) {
         std::ostringstream msg;
         msg << integrator_->name() << ": energy grew from " << energyStart << " J to "
@@ -302,6 +305,8 @@ StepReport Simulator::step(double dt) {
       substeps = std::max(substeps, r.substeps) * 2;
     }
   }
+  energyNow_.reset();
+  if (guard) energyNow_ = total.ok ? energyEnd : energyStart;
   if (!total.ok) {
     std::ostringstream msg;
     msg << "step at t = " << state_.time << " s failed after " << total.rollbacks

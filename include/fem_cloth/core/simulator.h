@@ -119,6 +119,9 @@ class Simulator {
   SimulatorSettings settings_;
   State state_;
   State backup_;
+  // The energy guard's mechanical energy of state_, when known: the end of one guarded step is
+  // the start of the next (the state changes only in step, setInitialState and reset).
+  std::optional<double> energyNow_;
   VectorX gravityForce_;
   std::vector<char> pinned_;
   VectorX pinTarget_, pinVelocity_;  // pin positions now, and their velocities
