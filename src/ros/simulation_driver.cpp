@@ -89,8 +89,7 @@ SimulationDriver::SimulationDriver(Simulation simulation, Scene scene, DriverSet
     : simulation_(std::move(simulation)),
       scene_(std::move(scene)),
       settings_(std::move(settings)),
-      tf_(tf),
-      stretch_(*simulation_.mesh) {}
+      tf_(tf) {}
 
 ros::Time SimulationDriver::stampOf(double simulationTime) const {
   return settings_.epoch + ros::Duration(simulationTime);

@@ -149,7 +149,6 @@ class SimulationDriver {
   std::vector<std::string> warnings_;
   std::vector<PinCommand> appliedPins_;
   std::vector<ForceCommand> appliedForces_;
-  EdgeStretchMeter stretch_;
   std::vector<double> strains_;
 };
 
