@@ -23,6 +23,11 @@ std::string str(double v) {
   return s.str();
 }
 
+// A frame name as tf2 keys it: without a leading '/'.
+std::string tfFrameName(const std::string& frame) {
+  return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
+}
+
 bool finite(const geometry_msgs::Point& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
 }
@@ -101,10 +106,7 @@ double SimulationDriver::commandTime(const ros::Time& stamp) const {
 }
 
 bool SimulationDriver::isSimulationFrame(const std::string& frame) const {
-  if (frame.empty()) return true;
-  const std::string a = frame[0] == '/' ? frame.substr(1) : frame;
-  const std::string b = settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
-  return a == b;
+  return frame.empty() || tfFrameName(frame) == tfFrameName(settings_.frame);
 }
 
 std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& frame,
@@ -116,9 +118,7 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
     if (why) *why = "frame '" + frame + "' needs tf, which is not available here";
     return std::nullopt;
   }
-  const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
-  const std::string target =
-      settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  const std::string source = tfFrameName(frame), target = tfFrameName(settings_.frame);
   if (!tf_->_frameExists(source)) {
     if (why) *why = "unknown frame '" + frame + "': tf has no such frame";
     return std::nullopt;
@@ -183,9 +183,7 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
 bool SimulationDriver::knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const {
   if (isSimulationFrame(frame)) return true;
   if (tf_ == nullptr) return false;
-  const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
-  const std::string target =
-      settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  const std::string source = tfFrameName(frame), target = tfFrameName(settings_.frame);
   if (!tf_->_frameExists(source) || !tf_->_frameExists(target)) return false;
   if (tf_->canTransform(target, source, at)) return true;
   try {
