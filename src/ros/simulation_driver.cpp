@@ -233,6 +233,12 @@ Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& s
   return Status::success();
 }
 
+void SimulationDriver::queue(Pending p) {
+  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
+                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
+  pending_.insert(it, std::move(p));
+}
+
 Status SimulationDriver::submit(const PinCommand& c) {
   const Index n = simulator().model().numVertices();
   if (c.action > PinCommand::RELEASE) {
@@ -262,10 +268,7 @@ Status SimulationDriver::submit(const PinCommand& c) {
   if (c.action != PinCommand::RELEASE) {
     if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
   }
-  Pending p{commandTime(c.header.stamp), arrivals_++, c};
-  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
-                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
-  pending_.insert(it, std::move(p));
+  queue(Pending{commandTime(c.header.stamp), arrivals_++, c});
   return Status::success();
 }
 
@@ -292,10 +295,7 @@ Status SimulationDriver::submit(const ForceCommand& c) {
   } else if (!c.forces.empty()) {
     return Error{"CLEAR takes no forces, got " + std::to_string(c.forces.size())};
   }
-  Pending p{commandTime(c.header.stamp), arrivals_++, c};
-  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
-                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
-  pending_.insert(it, std::move(p));
+  queue(Pending{commandTime(c.header.stamp), arrivals_++, c});
   return Status::success();
 }
 

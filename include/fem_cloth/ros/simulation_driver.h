@@ -132,6 +132,8 @@ class SimulationDriver {
   /// falls in a gap), so the transform for it will never arrive.
   bool knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const;
   double commandTime(const ros::Time& stamp) const;
+  /// Into pending_, after the commands due at the same time or earlier.
+  void queue(Pending p);
   Status apply(const PinCommand& command);
   Status apply(const ForceCommand& command);
   void followFrames(double endTime);
