@@ -268,7 +268,7 @@ Status SimulationDriver::submit(const PinCommand& c) {
   if (c.action != PinCommand::RELEASE) {
     if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
   }
-  queue(Pending{commandTime(c.header.stamp), arrivals_++, c});
+  queue(Pending{commandTime(c.header.stamp), c});
   return Status::success();
 }
 
@@ -295,7 +295,7 @@ Status SimulationDriver::submit(const ForceCommand& c) {
   } else if (!c.forces.empty()) {
     return Error{"CLEAR takes no forces, got " + std::to_string(c.forces.size())};
   }
-  queue(Pending{commandTime(c.header.stamp), arrivals_++, c});
+  queue(Pending{commandTime(c.header.stamp), c});
   return Status::success();
 }
 
