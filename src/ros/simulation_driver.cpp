@@ -629,12 +629,8 @@ std::vector<geometry_msgs::WrenchStamped> SimulationDriver::pinWrenchMessages() 
     geometry_msgs::WrenchStamped w;
     w.header.stamp = now();
     w.header.frame_id = frame;
-    w.wrench.force.x = f.x();
-    w.wrench.force.y = f.y();
-    w.wrench.force.z = f.z();
-    w.wrench.torque.x = tau.x();
-    w.wrench.torque.y = tau.y();
-    w.wrench.torque.z = tau.z();
+    tf2::toMsg(f, w.wrench.force);
+    tf2::toMsg(tau, w.wrench.torque);
     out.push_back(w);
   }
   return out;
@@ -734,12 +730,8 @@ std::vector<geometry_msgs::WrenchStamped> SimulationDriver::obstacleWrenchMessag
     geometry_msgs::WrenchStamped msg;
     msg.header.stamp = now();
     msg.header.frame_id = settings_.frame;
-    msg.wrench.force.x = w.force.x();
-    msg.wrench.force.y = w.force.y();
-    msg.wrench.force.z = w.force.z();
-    msg.wrench.torque.x = torque.x();
-    msg.wrench.torque.y = torque.y();
-    msg.wrench.torque.z = torque.z();
+    tf2::toMsg(w.force, msg.wrench.force);
+    tf2::toMsg(torque, msg.wrench.torque);
     out.push_back(msg);
   }
   return out;
