@@ -35,6 +35,17 @@ bool finite(const geometry_msgs::Vector3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+// Vertex i of a coordinate vector with d values per vertex (positions, velocities, forces) as
+// a 3D message (z = 0 in 2D).
+template <class M>
+M vertexMessage(const VectorX& values, int d, Index i) {
+  M m;
+  m.x = values[d * i];
+  m.y = values[d * i + 1];
+  m.z = d == 3 ? values[d * i + 2] : 0.0;
+  return m;
+}
+
 Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertices) {
   std::set<std::uint32_t> seen;
   for (std::size_t k = 0; k < vertices.size(); ++k) {
@@ -477,10 +488,8 @@ shape_msgs::Mesh SimulationDriver::meshMessage() const {
   }
   msg.vertices.resize(static_cast<std::size_t>(mesh.numVertices()));
   for (Index i = 0; i < mesh.numVertices(); ++i) {
-    geometry_msgs::Point& p = msg.vertices[static_cast<std::size_t>(i)];
-    p.x = mesh.restPositions[mesh.dim * i];
-    p.y = mesh.restPositions[mesh.dim * i + 1];
-    p.z = mesh.dim == 3 ? mesh.restPositions[mesh.dim * i + 2] : 0.0;
+    msg.vertices[static_cast<std::size_t>(i)] =
+        vertexMessage<geometry_msgs::Point>(mesh.restPositions, mesh.dim, i);
   }
   return msg;
 }
@@ -495,18 +504,13 @@ ClothState SimulationDriver::stateMessage() const {
   msg.step = s.step;
   msg.positions.resize(static_cast<std::size_t>(n));
   for (Index i = 0; i < n; ++i) {
-    geometry_msgs::Point& p = msg.positions[static_cast<std::size_t>(i)];
-    p.x = s.x[d * i];
-    p.y = s.x[d * i + 1];
-    p.z = d == 3 ? s.x[d * i + 2] : 0.0;
+    msg.positions[static_cast<std::size_t>(i)] = vertexMessage<geometry_msgs::Point>(s.x, d, i);
   }
   if (settings_.publishVelocities) {
     msg.velocities.resize(static_cast<std::size_t>(n));
     for (Index i = 0; i < n; ++i) {
-      geometry_msgs::Vector3& v = msg.velocities[static_cast<std::size_t>(i)];
-      v.x = s.v[d * i];
-      v.y = s.v[d * i + 1];
-      v.z = d == 3 ? s.v[d * i + 2] : 0.0;
+      msg.velocities[static_cast<std::size_t>(i)] =
+          vertexMessage<geometry_msgs::Vector3>(s.v, d, i);
     }
   }
   msg.state_hash = stateHash(s.x, s.v);
@@ -572,11 +576,7 @@ visualization_msgs::Marker SimulationDriver::markerMessage() {
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const std_msgs::ColorRGBA c = strainColour(strains_[t], settings_.strainColorMax);
     for (int k = 0; k < 3; ++k) {
-      const Index v = mesh.triangles[t][k];
-      geometry_msgs::Point& p = m.points[3 * t + k];
-      p.x = x[d * v];
-      p.y = x[d * v + 1];
-      p.z = d == 3 ? x[d * v + 2] : 0.0;
+      m.points[3 * t + k] = vertexMessage<geometry_msgs::Point>(x, d, mesh.triangles[t][k]);
       m.colors[3 * t + k] = c;
     }
   }
@@ -591,11 +591,7 @@ PinForces SimulationDriver::pinForcesMessage() const {
   msg.header.frame_id = settings_.frame;
   for (Index v : simulator().pinnedVertices()) {
     msg.vertices.push_back(static_cast<std::uint32_t>(v));
-    geometry_msgs::Vector3 f;
-    f.x = reactions[d * v];
-    f.y = reactions[d * v + 1];
-    f.z = d == 3 ? reactions[d * v + 2] : 0.0;
-    msg.forces.push_back(f);
+    msg.forces.push_back(vertexMessage<geometry_msgs::Vector3>(reactions, d, v));
   }
   return msg;
 }
