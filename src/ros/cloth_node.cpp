@@ -385,11 +385,11 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
       }
     }
   }
-  if ((force || step % markerEvery_ == 0) && wanted(markerPub_)) {
-    markerPub_.publish(driver_->markerMessage());
-  }
-  if ((force || step % markerEvery_ == 0) && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
-    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+  if (force || step % markerEvery_ == 0) {
+    if (wanted(markerPub_)) markerPub_.publish(driver_->markerMessage());
+    if (obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
+      obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+    }
   }
   publishDiagnostics(false);
 }
