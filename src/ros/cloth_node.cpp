@@ -358,12 +358,15 @@ void ClothNode::stepOnce() {
                                         << 1e3 * driver_->simulator().settings().dt << " ms)");
     }
   }
-  if (timeMode_ == TimeMode::Fast) {
-    rosgraph_msgs::Clock clock;
-    clock.clock = driver_->now();
-    clockPub_.publish(clock);
-  }
+  publishClock();
   publishOutputs(report, stepWallTime_, false);
+}
+
+void ClothNode::publishClock() {
+  if (timeMode_ != TimeMode::Fast) return;
+  rosgraph_msgs::Clock clock;
+  clock.clock = driver_->now();
+  clockPub_.publish(clock);
 }
 
 void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool force) {
@@ -385,11 +388,11 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
       }
     }
   }
-  if ((force || step % markerEvery_ == 0) && wanted(markerPub_)) {
-    markerPub_.publish(driver_->markerMessage());
-  }
-  if ((force || step % markerEvery_ == 0) && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
-    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+  if (force || step % markerEvery_ == 0) {
+    if (wanted(markerPub_)) markerPub_.publish(driver_->markerMessage());
+    if (obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
+      obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+    }
   }
   publishDiagnostics(false);
 }
@@ -444,11 +447,7 @@ void ClothNode::run() {
     std_msgs::String sceneMsg;
     sceneMsg.data = sceneText_;
     scenePub_.publish(sceneMsg);
-    if (timeMode_ == TimeMode::Fast) {
-      rosgraph_msgs::Clock clock;
-      clock.clock = driver_->now();
-      clockPub_.publish(clock);
-    }
+    publishClock();
     publishOutputs(StepReport(), 0.0, true);
   }
   const double dt = driver_->simulator().settings().dt;

@@ -23,11 +23,27 @@ std::string str(double v) {
   return s.str();
 }
 
+// A frame name as tf2 keys it: without a leading '/'.
+std::string tfFrameName(const std::string& frame) {
+  return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
+}
+
 bool finite(const geometry_msgs::Point& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
 }
 bool finite(const geometry_msgs::Vector3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// Vertex i of a coordinate vector with d values per vertex (positions, velocities, forces) as
+// a 3D message (z = 0 in 2D).
+template <class M>
+M vertexMessage(const VectorX& values, int d, Index i) {
+  M m;
+  m.x = values[d * i];
+  m.y = values[d * i + 1];
+  m.z = d == 3 ? values[d * i + 2] : 0.0;
+  return m;
 }
 
 Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertices) {
@@ -89,8 +105,7 @@ SimulationDriver::SimulationDriver(Simulation simulation, Scene scene, DriverSet
     : simulation_(std::move(simulation)),
       scene_(std::move(scene)),
       settings_(std::move(settings)),
-      tf_(tf),
-      stretch_(*simulation_.mesh) {}
+      tf_(tf) {}
 
 ros::Time SimulationDriver::stampOf(double simulationTime) const {
   return settings_.epoch + ros::Duration(simulationTime);
@@ -102,10 +117,7 @@ double SimulationDriver::commandTime(const ros::Time& stamp) const {
 }
 
 bool SimulationDriver::isSimulationFrame(const std::string& frame) const {
-  if (frame.empty()) return true;
-  const std::string a = frame[0] == '/' ? frame.substr(1) : frame;
-  const std::string b = settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
-  return a == b;
+  return frame.empty() || tfFrameName(frame) == tfFrameName(settings_.frame);
 }
 
 std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& frame,
@@ -117,9 +129,7 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
     if (why) *why = "frame '" + frame + "' needs tf, which is not available here";
     return std::nullopt;
   }
-  const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
-  const std::string target =
-      settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  const std::string source = tfFrameName(frame), target = tfFrameName(settings_.frame);
   if (!tf_->_frameExists(source)) {
     if (why) *why = "unknown frame '" + frame + "': tf has no such frame";
     return std::nullopt;
@@ -184,9 +194,7 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
 bool SimulationDriver::knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const {
   if (isSimulationFrame(frame)) return true;
   if (tf_ == nullptr) return false;
-  const std::string source = frame[0] == '/' ? frame.substr(1) : frame;
-  const std::string target =
-      settings_.frame[0] == '/' ? settings_.frame.substr(1) : settings_.frame;
+  const std::string source = tfFrameName(frame), target = tfFrameName(settings_.frame);
   if (!tf_->_frameExists(source) || !tf_->_frameExists(target)) return false;
   if (tf_->canTransform(target, source, at)) return true;
   try {
@@ -236,6 +244,12 @@ Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& s
   return Status::success();
 }
 
+void SimulationDriver::queue(Pending p) {
+  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
+                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
+  pending_.insert(it, std::move(p));
+}
+
 Status SimulationDriver::submit(const PinCommand& c) {
   const Index n = simulator().model().numVertices();
   if (c.action > PinCommand::RELEASE) {
@@ -265,10 +279,7 @@ Status SimulationDriver::submit(const PinCommand& c) {
   if (c.action != PinCommand::RELEASE) {
     if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
   }
-  Pending p{commandTime(c.header.stamp), arrivals_++, c};
-  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
-                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
-  pending_.insert(it, std::move(p));
+  queue(Pending{commandTime(c.header.stamp), c});
   return Status::success();
 }
 
@@ -295,10 +306,7 @@ Status SimulationDriver::submit(const ForceCommand& c) {
   } else if (!c.forces.empty()) {
     return Error{"CLEAR takes no forces, got " + std::to_string(c.forces.size())};
   }
-  Pending p{commandTime(c.header.stamp), arrivals_++, c};
-  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
-                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
-  pending_.insert(it, std::move(p));
+  queue(Pending{commandTime(c.header.stamp), c});
   return Status::success();
 }
 
@@ -480,10 +488,8 @@ shape_msgs::Mesh SimulationDriver::meshMessage() const {
   }
   msg.vertices.resize(static_cast<std::size_t>(mesh.numVertices()));
   for (Index i = 0; i < mesh.numVertices(); ++i) {
-    geometry_msgs::Point& p = msg.vertices[static_cast<std::size_t>(i)];
-    p.x = mesh.restPositions[mesh.dim * i];
-    p.y = mesh.restPositions[mesh.dim * i + 1];
-    p.z = mesh.dim == 3 ? mesh.restPositions[mesh.dim * i + 2] : 0.0;
+    msg.vertices[static_cast<std::size_t>(i)] =
+        vertexMessage<geometry_msgs::Point>(mesh.restPositions, mesh.dim, i);
   }
   return msg;
 }
@@ -498,18 +504,13 @@ ClothState SimulationDriver::stateMessage() const {
   msg.step = s.step;
   msg.positions.resize(static_cast<std::size_t>(n));
   for (Index i = 0; i < n; ++i) {
-    geometry_msgs::Point& p = msg.positions[static_cast<std::size_t>(i)];
-    p.x = s.x[d * i];
-    p.y = s.x[d * i + 1];
-    p.z = d == 3 ? s.x[d * i + 2] : 0.0;
+    msg.positions[static_cast<std::size_t>(i)] = vertexMessage<geometry_msgs::Point>(s.x, d, i);
   }
   if (settings_.publishVelocities) {
     msg.velocities.resize(static_cast<std::size_t>(n));
     for (Index i = 0; i < n; ++i) {
-      geometry_msgs::Vector3& v = msg.velocities[static_cast<std::size_t>(i)];
-      v.x = s.v[d * i];
-      v.y = s.v[d * i + 1];
-      v.z = d == 3 ? s.v[d * i + 2] : 0.0;
+      msg.velocities[static_cast<std::size_t>(i)] =
+          vertexMessage<geometry_msgs::Vector3>(s.v, d, i);
     }
   }
   msg.state_hash = stateHash(s.x, s.v);
@@ -575,11 +576,7 @@ visualization_msgs::Marker SimulationDriver::markerMessage() {
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const std_msgs::ColorRGBA c = strainColour(strains_[t], settings_.strainColorMax);
     for (int k = 0; k < 3; ++k) {
-      const Index v = mesh.triangles[t][k];
-      geometry_msgs::Point& p = m.points[3 * t + k];
-      p.x = x[d * v];
-      p.y = x[d * v + 1];
-      p.z = d == 3 ? x[d * v + 2] : 0.0;
+      m.points[3 * t + k] = vertexMessage<geometry_msgs::Point>(x, d, mesh.triangles[t][k]);
       m.colors[3 * t + k] = c;
     }
   }
@@ -594,11 +591,7 @@ PinForces SimulationDriver::pinForcesMessage() const {
   msg.header.frame_id = settings_.frame;
   for (Index v : simulator().pinnedVertices()) {
     msg.vertices.push_back(static_cast<std::uint32_t>(v));
-    geometry_msgs::Vector3 f;
-    f.x = reactions[d * v];
-    f.y = reactions[d * v + 1];
-    f.z = d == 3 ? reactions[d * v + 2] : 0.0;
-    msg.forces.push_back(f);
+    msg.forces.push_back(vertexMessage<geometry_msgs::Vector3>(reactions, d, v));
   }
   return msg;
 }
@@ -632,12 +625,8 @@ std::vector<geometry_msgs::WrenchStamped> SimulationDriver::pinWrenchMessages() 
     geometry_msgs::WrenchStamped w;
     w.header.stamp = now();
     w.header.frame_id = frame;
-    w.wrench.force.x = f.x();
-    w.wrench.force.y = f.y();
-    w.wrench.force.z = f.z();
-    w.wrench.torque.x = tau.x();
-    w.wrench.torque.y = tau.y();
-    w.wrench.torque.z = tau.z();
+    tf2::toMsg(f, w.wrench.force);
+    tf2::toMsg(tau, w.wrench.torque);
     out.push_back(w);
   }
   return out;
@@ -737,12 +726,8 @@ std::vector<geometry_msgs::WrenchStamped> SimulationDriver::obstacleWrenchMessag
     geometry_msgs::WrenchStamped msg;
     msg.header.stamp = now();
     msg.header.frame_id = settings_.frame;
-    msg.wrench.force.x = w.force.x();
-    msg.wrench.force.y = w.force.y();
-    msg.wrench.force.z = w.force.z();
-    msg.wrench.torque.x = torque.x();
-    msg.wrench.torque.y = torque.y();
-    msg.wrench.torque.z = torque.z();
+    tf2::toMsg(w.force, msg.wrench.force);
+    tf2::toMsg(torque, msg.wrench.torque);
     out.push_back(msg);
   }
   return out;

@@ -114,10 +114,6 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   options.duration = opt.duration;
   options.every = opt.every;
   options.progress = !opt.quiet;
-  if (opt.commands.empty() && opt.scene.empty()) {
-    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
-    return 2;
-  }
   Expected<BagRunReport> report = runToBag(opt.commands, opt.out, options);
   if (!report) {
     const bool failed = report.error().find("the simulation failed") != std::string::npos;
@@ -212,6 +208,10 @@ int main(int argc, char** argv) {
     s << std::setprecision(17) << "duration=" << opt.duration;
     overrides.push_back(s.str());
   }
+  if (opt.commands.empty() && opt.scene.empty()) {
+    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
+    return 2;
+  }
   const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
   if (!opt.commands.empty() || bagOut) {
     if (!bagOut) {
@@ -219,10 +219,6 @@ int main(int argc, char** argv) {
       return 2;
     }
     return runBag(opt, overrides);
-  }
-  if (opt.scene.empty()) {
-    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
-    return 2;
   }
   Expected<Scene> scene = loadScene(opt.scene, overrides);
   if (!scene) {

@@ -69,6 +69,8 @@ class ClothNode {
   bool onAdvance(Advance::Request& req, Advance::Response& res);
   /// One step and its outputs (lock held by the caller).
   void stepOnce();
+  /// /clock at the simulation time (fast mode only).
+  void publishClock();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
   void publishDiagnostics(bool force);
   bool wanted(const ros::Publisher& pub) const {

@@ -112,8 +112,7 @@ class SimulationDriver {
 
  private:
   struct Pending {
-    double time;          // simulation time it takes effect (<= 0: next step)
-    std::uint64_t order;  // arrival order, to keep equal stamps in order
+    double time;  // simulation time it takes effect (<= 0: next step)
     std::variant<PinCommand, ForceCommand> command;
   };
   struct Follow {
@@ -132,6 +131,9 @@ class SimulationDriver {
   /// falls in a gap), so the transform for it will never arrive.
   bool knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const;
   double commandTime(const ros::Time& stamp) const;
+  /// Into pending_, after the commands due at the same time or earlier (equal times keep their
+  /// arrival order).
+  void queue(Pending p);
   Status apply(const PinCommand& command);
   Status apply(const ForceCommand& command);
   void followFrames(double endTime);
@@ -143,13 +145,11 @@ class SimulationDriver {
   DriverSettings settings_;
   const tf2::BufferCore* tf_;
   std::deque<Pending> pending_;
-  std::uint64_t arrivals_ = 0;
   std::map<Index, Follow> follow_;
   std::map<std::size_t, Eigen::Isometry3d> obstacleFrame_;  // last known pose of a followed frame
   std::vector<std::string> warnings_;
   std::vector<PinCommand> appliedPins_;
   std::vector<ForceCommand> appliedForces_;
-  EdgeStretchMeter stretch_;
   std::vector<double> strains_;
 };
 
