@@ -13,22 +13,16 @@ namespace fem_cloth {
 
 namespace {
 
-std::string str(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
 Status positiveFinite(double value, const std::string& key, const std::string& unit) {
   if (!(value > 0.0) || !std::isfinite(value)) {
-    return Error{key + " must be positive and finite (" + unit + "), got " + str(value)};
+    return Error{key + " must be positive and finite (" + unit + "), got " + numberText(value)};
   }
   return Status::success();
 }
 
 Status nonNegativeFinite(double value, const std::string& key, const std::string& unit) {
   if (!(value >= 0.0) || !std::isfinite(value)) {
-    return Error{key + " must be zero or positive and finite (" + unit + "), got " + str(value)};
+    return Error{key + " must be zero or positive and finite (" + unit + "), got " + numberText(value)};
   }
   return Status::success();
 }
@@ -45,7 +39,7 @@ Status checkTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std
     if (Status s = finiteVector(trajectory[k].offset, at + ".offset"); !s) return s;
     if (k > 0 && !(trajectory[k].time > trajectory[k - 1].time)) {
       return Error{at + ".time must be later than the point before (" +
-                   str(trajectory[k - 1].time) + " s), got " + str(trajectory[k].time)};
+                   numberText(trajectory[k - 1].time) + " s), got " + numberText(trajectory[k].time)};
     }
   }
   return Status::success();
@@ -84,7 +78,7 @@ Status validateScene(const Scene& s) {
     return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.dim)};
   }
   if (!(s.minTriangleQuality >= 0.0 && s.minTriangleQuality < 1.0)) {
-    return Error{"mesh.min_quality must be in [0, 1), got " + str(s.minTriangleQuality)};
+    return Error{"mesh.min_quality must be in [0, 1), got " + numberText(s.minTriangleQuality)};
   }
   if (Expected<Material> m = makeMaterial(s.materialModel, Lame{}); !m) {
     return Error{"material.model: " + m.error()};
@@ -130,7 +124,7 @@ Status validateScene(const Scene& s) {
   if (s.substeps < 1) return Error{"integrator.substeps must be at least 1, got " + std::to_string(s.substeps)};
   if (s.maxRetries < 0) return Error{"integrator.max_retries must be >= 0"};
   if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
-    return Error{"integrator.cfl_safety must be in (0, 1], got " + str(s.cflSafety)};
+    return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(s.cflSafety)};
   }
   if (s.newton.maxIterations < 1) return Error{"integrator.max_newton_iterations must be at least 1"};
   FEM_CLOTH_CHECK(positiveFinite(s.newton.tolerance, "integrator.newton_tolerance", "relative"));
@@ -138,7 +132,7 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(positiveFinite(s.newton.linear.cgTolerance, "integrator.cg_tolerance", "relative"));
   if (s.iterations < 1) return Error{"integrator.iterations must be at least 1"};
   if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
-    return Error{"integrator.chebyshev_rho must be in [0, 1), got " + str(s.chebyshevRho)};
+    return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(s.chebyshevRho)};
   }
   for (std::size_t i = 0; i < s.pins.size(); ++i) {
     const std::string key = "pins[" + std::to_string(i) + "]";
@@ -284,20 +278,20 @@ Expected<Lame> membraneLame(const Scene& s) {
     if (!s.poissonRatio) return Error{"material.poisson_ratio is required with youngs_modulus"};
     if (!(*s.youngsModulus > 0.0) || !std::isfinite(*s.youngsModulus)) {
       return Error{"material.youngs_modulus must be positive and finite (Pa), got " +
-                   str(*s.youngsModulus)};
+                   numberText(*s.youngsModulus)};
     }
     if (!(*s.poissonRatio >= 0.0 && *s.poissonRatio < 0.5)) {
-      return Error{"material.poisson_ratio must be in [0, 0.5), got " + str(*s.poissonRatio)};
+      return Error{"material.poisson_ratio must be in [0, 0.5), got " + numberText(*s.poissonRatio)};
     }
     volumetric = Lame::fromYoungPoisson(*s.youngsModulus, *s.poissonRatio);
   } else {
     if (!s.mu || !s.lambda) return Error{"material: mu and lambda must be given together"};
     if (!(*s.mu > 0.0) || !std::isfinite(*s.mu)) {
-      return Error{"material.mu must be positive and finite (Pa), got " + str(*s.mu)};
+      return Error{"material.mu must be positive and finite (Pa), got " + numberText(*s.mu)};
     }
     if (!(*s.lambda >= 0.0) || !std::isfinite(*s.lambda)) {
       return Error{"material.lambda must be zero or positive and finite (Pa), got " +
-                   str(*s.lambda)};
+                   numberText(*s.lambda)};
     }
     volumetric = Lame{*s.mu, *s.lambda};
   }
@@ -564,7 +558,7 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         if (!(dist > 0.0)) {
           return Error{"obstacles[" + std::to_string(k) + "] ('" + contact->obstacle(k).name +
                        "'): vertex " + std::to_string(vert) + " starts inside it or on its surface (distance " +
-                       str(dist) + " m); move the obstacle or the cloth"};
+                       numberText(dist) + " m); move the obstacle or the cloth"};
         }
       }
     }
@@ -573,9 +567,9 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
       // barrier would push them apart from the start.
       const double rest = contact->minimumSelfDistance(mesh->restPositions);
       if (rest < scene.contact.distance) {
-        return Error{"contact.distance (" + str(scene.contact.distance) +
+        return Error{"contact.distance (" + numberText(scene.contact.distance) +
                      " m) must be below the smallest rest distance between parts of the cloth that "
-                     "share no vertex (" + str(rest) + " m) for self_collision; use a smaller distance "
+                     "share no vertex (" + numberText(rest) + " m) for self_collision; use a smaller distance "
                      "or a coarser mesh"};
       }
       const double now = contact->minimumSelfDistance(x);

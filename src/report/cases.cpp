@@ -12,12 +12,6 @@ namespace fem_cloth::report {
 
 namespace {
 
-std::string shortNumber(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
 // A YAML list written on one line: [1, 2, 3].
 template <class T>
 YAML::Node flow(const std::vector<T>& values) {
@@ -208,13 +202,13 @@ std::vector<Variant> workPrecisionVariants(const std::vector<std::string>& integ
     };
     if (name == "symplectic_euler") {
       for (double safety : small ? std::vector<double>{0.5} : std::vector<double>{0.5, 0.25, 0.125}) {
-        add(name + " cfl " + shortNumber(safety), {setting("integrator.cfl_safety", safety)});
+        add(name + " cfl " + numberText(safety), {setting("integrator.cfl_safety", safety)});
       }
     } else if (name == "backward_euler" || name == "bdf2") {
       std::vector<double> tolerances = {1e-3};
       if (!small) tolerances.push_back(name == "bdf2" ? 1e-5 : 1e-2);
       for (double tol : tolerances) {
-        add(name + " tol " + shortNumber(tol), {setting("integrator.newton_tolerance", tol)});
+        add(name + " tol " + numberText(tol), {setting("integrator.newton_tolerance", tol)});
       }
     } else if (name == "projective_dynamics") {
       // Around its default of 10 local/global iterations, and the fast scene's setting

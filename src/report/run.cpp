@@ -38,12 +38,6 @@ std::optional<std::uint64_t> stepsIn(double interval, double dt) {
   return static_cast<std::uint64_t>(whole);
 }
 
-std::string str(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
 }  // namespace
 
 bool wholeSteps(double interval, double dt) { return stepsIn(interval, dt).has_value(); }
@@ -106,8 +100,8 @@ RunResult runScene(const RunRequest& request) {
       request.sampleInterval > 0.0 ? stepsIn(request.sampleInterval, dt) : total;
   if (!total || !every) {
     out.outcome = RunResult::Outcome::BuildError;
-    out.error = "dt = " + str(dt) + " s does not divide the duration " + str(duration) +
-                " s and the sample interval " + str(request.sampleInterval) + " s";
+    out.error = "dt = " + numberText(dt) + " s does not divide the duration " + numberText(duration) +
+                " s and the sample interval " + numberText(request.sampleInterval) + " s";
     return out;
   }
   const std::shared_ptr<const Mesh> mesh = built->mesh;
@@ -147,8 +141,8 @@ RunResult runScene(const RunRequest& request) {
     const EnergyReport e = sim.energies();
     if (!std::isfinite(e.total) || !std::isfinite(e.balanceError)) {
       out.outcome = RunResult::Outcome::NonFinite;
-      out.error = "non-finite energy after step " + std::to_string(k) + " (total " + str(e.total) +
-                  " J, balance error " + str(e.balanceError) + " J)";
+      out.error = "non-finite energy after step " + std::to_string(k) + " (total " + numberText(e.total) +
+                  " J, balance error " + numberText(e.balanceError) + " J)";
       return false;
     }
     heldEnergy = std::max(heldEnergy, e.kinetic + e.strain + e.bending + std::abs(e.gravity));
@@ -195,8 +189,8 @@ RunResult runScene(const RunRequest& request) {
     finite = observe(k, true);
     if (finite && out.wall > request.wallBudget && k < *total) {
       out.outcome = RunResult::Outcome::OverBudget;
-      out.error = "stopped after " + str(out.wall) + " s of wall time at t = " + str(sim.time()) +
-                  " s (budget " + str(request.wallBudget) + " s)";
+      out.error = "stopped after " + numberText(out.wall) + " s of wall time at t = " + numberText(sim.time()) +
+                  " s (budget " + numberText(request.wallBudget) + " s)";
       break;
     }
   }

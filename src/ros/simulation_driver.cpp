@@ -17,12 +17,6 @@ namespace fem_cloth {
 
 namespace {
 
-std::string str(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
 // A frame name as tf2 keys it: without a leading '/'.
 std::string tfFrameName(const std::string& frame) {
   return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
@@ -161,29 +155,29 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
       const double gap = (available - at).toSec();
       if (gap <= settings_.tfTimeout) {
         if (inexact) {
-          *inexact = "frame '" + frame + "' is not known yet at " + str(at.toSec()) +
-                     " s; its first transform, " + str(gap) + " s later, stands in";
+          *inexact = "frame '" + frame + "' is not known yet at " + numberText(at.toSec()) +
+                     " s; its first transform, " + numberText(gap) + " s later, stands in";
         }
         return tf2::transformToEigen(tf_->lookupTransform(target, source, available));
       }
       if (why) {
         *why = "frame '" + frame + "' is unknown at the time it is needed: its first transform " +
-               "is " + str(gap) + " s later (tf_timeout = " + str(settings_.tfTimeout) + " s)";
+               "is " + numberText(gap) + " s later (tf_timeout = " + numberText(settings_.tfTimeout) + " s)";
       }
       return std::nullopt;
     }
     const double age = (at - latest.header.stamp).toSec();
     if (age <= settings_.tfTimeout) {
       if (inexact) {
-        *inexact = "frame '" + frame + "' is not known yet at " + str(at.toSec()) +
-                   " s; its newest transform, " + str(age) + " s older, stands in";
+        *inexact = "frame '" + frame + "' is not known yet at " + numberText(at.toSec()) +
+                   " s; its newest transform, " + numberText(age) + " s older, stands in";
       }
       return tf2::transformToEigen(latest);
     }
     if (why) {
-      *why = "frame '" + frame + "' is stale: its newest transform is " + str(age) +
+      *why = "frame '" + frame + "' is stale: its newest transform is " + numberText(age) +
              " s older than the time it is needed at (tf_timeout = " +
-             str(settings_.tfTimeout) + " s)";
+             numberText(settings_.tfTimeout) + " s)";
     }
   } catch (const tf2::TransformException& e) {
     if (why) *why = "frame '" + frame + "' is not connected to '" + target + "': " + e.what();
@@ -210,7 +204,7 @@ bool SimulationDriver::transformsReady(std::string* missing) const {
   auto check = [&](const std::string& frame, double when) {
     if (knownOrNeverWillBe(frame, stampOf(when))) return true;
     if (missing != nullptr) {
-      *missing = "frame '" + frame + "' at t = " + str(when) + " s";
+      *missing = "frame '" + frame + "' at t = " + numberText(when) + " s";
     }
     return false;
   };
@@ -300,7 +294,7 @@ Status SimulationDriver::submit(const ForceCommand& c) {
       if (!finite(c.forces[k])) return Error{"force " + std::to_string(k) + " is not finite"};
     }
     if (!std::isfinite(c.duration) || c.duration < 0.0) {
-      return Error{"duration must be finite and >= 0 s (0 = until cleared), got " + str(c.duration)};
+      return Error{"duration must be finite and >= 0 s (0 = until cleared), got " + numberText(c.duration)};
     }
     if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
   } else if (!c.forces.empty()) {
@@ -400,7 +394,7 @@ StepReport SimulationDriver::step() {
     pending_.pop_front();
     const Status s = std::visit([this](const auto& c) { return apply(c); }, p.command);
     if (!s) {
-      warnings_.push_back("command could not be applied at t = " + str(t) + " s: " + s.error());
+      warnings_.push_back("command could not be applied at t = " + numberText(t) + " s: " + s.error());
       continue;
     }
     std::visit(

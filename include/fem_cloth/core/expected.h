@@ -4,6 +4,7 @@
 #pragma once
 
 #include <optional>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <variant>
@@ -13,6 +14,13 @@ namespace fem_cloth {
 struct Error {
   std::string message;
 };
+
+/// A number as error messages and tables write it (ostream's default: 6 significant digits).
+inline std::string numberText(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
 
 template <typename T>
 class Expected {
