@@ -319,7 +319,9 @@ int main(int argc, char** argv) {
           << simulator.model().numVertices() << " vertices, " << simulator.model().mesh().numTriangles()
           << " triangles, model " << scene->materialModel << '\n';
   summary << "integrator:   " << simulator.integrator().name() << ", dt " << dt << " s";
-  if (scene->integrator == "xpbd" || scene->integrator == "projective_dynamics") {
+  // Their iterations are local sweeps (XPBD) or local/global iterations (PD), not Newton's.
+  const bool iteratesLocally = scene->integrator == "xpbd" || scene->integrator == "projective_dynamics";
+  if (iteratesLocally) {
     summary << ", " << scene->iterations << " iterations";
   }
   summary << '\n';
@@ -353,8 +355,7 @@ int main(int argc, char** argv) {
   auto perStep = [&](std::uint64_t count) {
     return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
   };
-  if (scene->integrator == "xpbd" || scene->integrator == "projective_dynamics") {
-    // Their iterations are local sweeps (XPBD) or local/global iterations (PD), not Newton's.
+  if (iteratesLocally) {
     summary << "solver:       " << totals.localIterations << " "
             << (scene->integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
             << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
