@@ -18,6 +18,11 @@ export ROS_PYTHON_VERSION=3
 # OpenMP threads sleep while they wait (see include/fem_cloth/core/threads.h); the programs set
 # this themselves, test programs inherit it from here.
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
+# Rebuilds of unchanged sources (a second clone, a worktree, a clean build) come from ccache when
+# it is installed; CMake reads this when it first configures a build folder.
+if [ -z "${CMAKE_CXX_COMPILER_LAUNCHER:-}" ] && command -v ccache >/dev/null 2>&1; then
+  export CMAKE_CXX_COMPILER_LAUNCHER=ccache
+fi
 
 fem_cloth_jobs() {
   local n
