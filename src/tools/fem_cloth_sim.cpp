@@ -3,6 +3,7 @@
 //   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
 //                 [--duration S] [--set key=value]... [--out DIR | --out FILE.bag] [--every N]
 //   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
+//   fem_cloth_sim --scene S [--set key=value]... --check [--write-scene FILE]
 //
 // Exit status: 0 success, 2 bad scene, bag or command line, 3 the simulation failed (the error
 // says why; CSV outputs hold everything up to the last good state, a bag is not written),
@@ -43,6 +44,8 @@ struct Options {
   std::string commands;
   std::string node = "/fem_cloth_node";
   bool verify = false;
+  bool check = false;
+  std::string writeScene;
 };
 
 struct Totals {
@@ -103,6 +106,58 @@ void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stret
          << stretch.mean << ',' << stretch.max << ',' << minJ << ',' << r.substeps << ','
          << r.newtonIterations << ',' << r.residual << ',' << r.lineSearchBacktracks << ','
          << r.rollbacks << '\n';
+}
+
+// A scene file with its overrides applied, parsed and built as a run would build it.
+struct Loaded {
+  YAML::Node document;
+  Scene scene;
+  Simulation simulation;
+};
+
+Expected<Loaded> loadAndBuild(const std::string& path, const std::vector<std::string>& overrides) {
+  Expected<YAML::Node> doc = loadSceneDocument(path, overrides);
+  if (!doc) return Error{doc.error()};
+  Expected<Scene> scene = parseScene(*doc, path);
+  if (!scene) return Error{path + ": " + scene.error()};
+  Expected<Simulation> built = buildSimulation(*scene);
+  if (!built) return Error{path + ": " + built.error()};
+  return Loaded{std::move(doc).value(), std::move(scene).value(), std::move(built).value()};
+}
+
+// --check and --write-scene: the scene is validated exactly as a run would build it, without
+// stepping; --write-scene saves the document with the overrides applied, so that the run repeats
+// with `--scene FILE` alone (fem_cloth_batch writes its episodes this way). Written to FILE.partial
+// and renamed: a file under the final name is always complete.
+int checkScene(const Options& opt, const std::vector<std::string>& overrides) {
+  Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
+  if (!loaded) {
+    std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
+    return 2;
+  }
+  if (!opt.writeScene.empty()) {
+    const std::string partial = opt.writeScene + ".partial";
+    std::ofstream file(partial);
+    file << sceneDocumentToString(loaded->document) << '\n';
+    file.close();
+    std::error_code ec;
+    if (file) std::filesystem::rename(partial, opt.writeScene, ec);
+    if (!file || ec) {
+      std::filesystem::remove(partial, ec);
+      std::cerr << "fem_cloth_sim: cannot write the scene to '" << opt.writeScene << "'\n";
+      return 2;
+    }
+  }
+  if (opt.check) {
+    const Scene& s = loaded->scene;
+    const Simulator& simulator = *loaded->simulation.simulator;
+    std::cout << "scene ok:     " << s.name << " (" << opt.scene << "), "
+              << simulator.model().numVertices() << " vertices, "
+              << simulator.model().mesh().numTriangles() << " triangles, "
+              << simulator.integrator().name() << ", dt " << s.dt << " s, duration "
+              << s.duration << " s\n";
+  }
+  return 0;
 }
 
 // Re-simulation of a recorded run, or a scene, into a bag.
@@ -186,6 +241,12 @@ int main(int argc, char** argv) {
   app.add_flag("--no-output", opt.noOutput, "write no files, only the summary");
   app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)");
   app.add_flag("--quiet,-q", opt.quiet, "no progress line");
+  app.add_flag("--check", opt.check,
+               "validate the scene with its overrides (parse and build it), print one line and "
+               "exit without running: 0 valid, 2 not");
+  app.add_option("--write-scene", opt.writeScene,
+                 "write the scene with the --set overrides applied to this YAML file (runs "
+                 "again with --scene FILE alone)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -212,6 +273,13 @@ int main(int argc, char** argv) {
     std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
     return 2;
   }
+  if ((opt.check || !opt.writeScene.empty()) && (opt.scene.empty() || !opt.commands.empty())) {
+    std::cerr << "fem_cloth_sim: --check and --write-scene need --scene (and no --commands)\n";
+    return 2;
+  }
+  if (!opt.writeScene.empty() || opt.check) {
+    if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
+  }
   const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
   if (!opt.commands.empty() || bagOut) {
     if (!bagOut) {
@@ -220,17 +288,13 @@ int main(int argc, char** argv) {
     }
     return runBag(opt, overrides);
   }
-  Expected<Scene> scene = loadScene(opt.scene, overrides);
-  if (!scene) {
-    std::cerr << "fem_cloth_sim: " << scene.error() << '\n';
+  Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
+  if (!loaded) {
+    std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
     return 2;
   }
-  Expected<Simulation> built = buildSimulation(*scene);
-  if (!built) {
-    std::cerr << "fem_cloth_sim: " << opt.scene << ": " << built.error() << '\n';
-    return 2;
-  }
-  Simulation& sim = *built;
+  const Scene* scene = &loaded->scene;
+  Simulation& sim = loaded->simulation;
   for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << w << '\n';
   Simulator& simulator = *sim.simulator;
   const double dt = scene->dt;
