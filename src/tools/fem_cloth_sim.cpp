@@ -5,10 +5,13 @@
 //   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
 //   fem_cloth_sim --scene S [--set key=value]... --check [--write-scene FILE]
 //
+// --summary-json FILE also writes the summary for programs (fem_cloth_batch's index).
+//
 // Exit status: 0 success, 2 bad scene, bag or command line, 3 the simulation failed (the error
 // says why; CSV outputs hold everything up to the last good state, a bag is not written),
 // 4 with --verify: a recorded state was not reproduced bit for bit.
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -25,6 +28,7 @@
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
+#include "fem_cloth/ros/simulation_driver.h"
 #include "fem_cloth/core/threads.h"
 
 using namespace fem_cloth;
@@ -46,6 +50,7 @@ struct Options {
   bool verify = false;
   bool check = false;
   std::string writeScene;
+  std::string summaryJson;
 };
 
 struct Totals {
@@ -108,6 +113,39 @@ void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stret
          << r.rollbacks << '\n';
 }
 
+// Written to PATH.partial and renamed: a file under the final name is always complete.
+bool writeTextFile(const std::string& path, const std::string& text) {
+  const std::string partial = path + ".partial";
+  std::ofstream file(partial);
+  file << text;
+  file.close();
+  std::error_code ec;
+  if (file) std::filesystem::rename(partial, path, ec);
+  if (!file || ec) {
+    std::filesystem::remove(partial, ec);
+    std::cerr << "fem_cloth_sim: cannot write '" << path << "'\n";
+    return false;
+  }
+  return true;
+}
+
+// --summary-json: the summary for programs, in SI units (J, s); state_hash is ClothState's hash
+// of the final positions and velocities (equal hashes: bit-identical states). Non-finite
+// numbers become null.
+using Json = nlohmann::ordered_json;
+
+Json energyJson(const EnergyReport& e) {
+  return Json{{"kinetic", e.kinetic},         {"strain", e.strain},
+              {"bending", e.bending},         {"gravity", e.gravity},
+              {"total", e.total},             {"external_work", e.externalWork},
+              {"pin_work", e.pinWork},        {"contact_work", e.contactWork},
+              {"dissipated", e.dissipated},   {"balance_error", e.balanceError}};
+}
+
+bool writeSummaryJson(const std::string& path, const Json& summary) {
+  return path.empty() || writeTextFile(path, summary.dump(2) + "\n");
+}
+
 // A scene file with its overrides applied, parsed and built as a run would build it.
 struct Loaded {
   YAML::Node document;
@@ -127,26 +165,16 @@ Expected<Loaded> loadAndBuild(const std::string& path, const std::vector<std::st
 
 // --check and --write-scene: the scene is validated exactly as a run would build it, without
 // stepping; --write-scene saves the document with the overrides applied, so that the run repeats
-// with `--scene FILE` alone (fem_cloth_batch writes its episodes this way). Written to FILE.partial
-// and renamed: a file under the final name is always complete.
+// with `--scene FILE` alone (fem_cloth_batch writes its episodes this way).
 int checkScene(const Options& opt, const std::vector<std::string>& overrides) {
   Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
   if (!loaded) {
     std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
     return 2;
   }
-  if (!opt.writeScene.empty()) {
-    const std::string partial = opt.writeScene + ".partial";
-    std::ofstream file(partial);
-    file << sceneDocumentToString(loaded->document) << '\n';
-    file.close();
-    std::error_code ec;
-    if (file) std::filesystem::rename(partial, opt.writeScene, ec);
-    if (!file || ec) {
-      std::filesystem::remove(partial, ec);
-      std::cerr << "fem_cloth_sim: cannot write the scene to '" << opt.writeScene << "'\n";
-      return 2;
-    }
+  if (!opt.writeScene.empty() &&
+      !writeTextFile(opt.writeScene, sceneDocumentToString(loaded->document) + "\n")) {
+    return 2;
   }
   if (opt.check) {
     const Scene& s = loaded->scene;
@@ -200,6 +228,17 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
             << r.energy.total << ", balance error " << r.energy.balanceError << '\n';
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
   std::cout << "output:       " << opt.out << '\n';
+  const Json summary{{"status", "ok"},
+                     {"scene", r.scene},
+                     {"integrator", r.integrator},
+                     {"steps", r.steps},
+                     {"simulated_s", r.simulated},
+                     {"wall_s", r.wall},
+                     {"energy", energyJson(r.energy)},
+                     {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
+                     {"state_hash", r.finalHash},
+                     {"outputs", {opt.out}}};
+  if (!writeSummaryJson(opt.summaryJson, summary)) return 2;
   if (opt.verify && r.identical < r.compared) {
     std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
               << " recorded states were not reproduced\n";
@@ -244,6 +283,9 @@ int main(int argc, char** argv) {
   app.add_flag("--check", opt.check,
                "validate the scene with its overrides (parse and build it), print one line and "
                "exit without running: 0 valid, 2 not");
+  app.add_option("--summary-json", opt.summaryJson,
+                 "also write the summary as JSON to this file (energies, stretch, final state "
+                 "hash; on a failed run the state reached and the error)");
   app.add_option("--write-scene", opt.writeScene,
                  "write the scene with the --set overrides applied to this YAML file (runs "
                  "again with --scene FILE alone)");
@@ -435,6 +477,22 @@ int main(int argc, char** argv) {
   }
   if (!opt.noOutput) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
+  Json outputs = Json::array();
+  if (!opt.noOutput) outputs = {outDir + "/trajectory.csv", outDir + "/energy.csv"};
+  const Json json{{"status", failure.empty() ? "ok" : "failed"},
+                  {"error", failure},
+                  {"scene", scene->name},
+                  {"integrator", simulator.integrator().name()},
+                  {"steps", totals.steps},
+                  {"total_steps", totalSteps},
+                  {"simulated_s", simulator.time()},
+                  {"wall_s", wall},
+                  {"energy", energyJson(e)},
+                  {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
+                  {"min_area_ratio", totals.minAreaRatio},
+                  {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
+                  {"outputs", outputs}};
+  if (!writeSummaryJson(opt.summaryJson, json)) return 2;
   if (!failure.empty()) {
     std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: " << failure << '\n';
     return 3;
