@@ -1,0 +1,159 @@
+"""fem_cloth_batch: batch runs of randomised scenes on Dask distributed (docs/batch.md).
+
+  fem_cloth_batch [run] SPEC.yaml [--out DIR] [--scheduler tcp://HOST:8786 | --workers N]
+                  [--sim PATH] [--retries N] [--dry-run] [--quiet]
+  fem_cloth_batch verify DIR/index.csv [--sample N] [--seed S] [--threads 1,2]
+                  [--scheduler ADDRESS | --workers N] [--sim PATH] [--quiet]
+
+Exit status: 0 every episode ok (verify: every re-run identical), 2 a bad spec, index or command
+line, 3 some episodes failed (listed, and in the index), 4 verify found a different state,
+1 the cluster could not be started or reached, 130 interrupted.
+"""
+
+import argparse
+import os
+import sys
+import time
+
+from fem_cloth.batch.batch import Batch, BatchError, find_program, verify
+from fem_cloth.batch.runner import Runner, RunnerError, default_workers
+from fem_cloth.batch.spec import Spec, SpecError
+
+PROGRAM = "fem_cloth_batch"
+
+
+def _say(text):
+    print(f"{PROGRAM}: {text}", flush=True)
+
+
+def _count(n, what):
+    return f"{n} {what}{'' if n == 1 else 's'}"
+
+
+def _cluster_options(parser):
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--scheduler", metavar="ADDRESS",
+                       help="an existing Dask scheduler (tcp://HOST:8786); default: a local cluster")
+    group.add_argument("--workers", type=int, metavar="N",
+                       help=f"local cluster workers, one thread each (default: the cores, {default_workers()})")
+    parser.add_argument("--sim", metavar="PATH", help="the fem_cloth_sim to run (default: this source "
+                        "tree's build, else the sourced workspace, else PATH); workers need it at the same path")
+    parser.add_argument("--retries", type=int, default=1, metavar="N",
+                        help="runs again a task that did not end ok, up to N more times (default 1)")
+    parser.add_argument("--quiet", "-q", action="store_true", help="no progress line")
+
+
+def _run_parser():
+    parser = argparse.ArgumentParser(prog=PROGRAM, description="Runs the episodes of a batch spec "
+                                     "(docs/batch.md) on Dask distributed and writes an index of them.")
+    parser.add_argument("spec", help="the batch spec (YAML)")
+    parser.add_argument("--out", metavar="DIR", help="the batch folder (default: "
+                        "fem_cloth_output/batch/<spec name>); an earlier run there is resumed")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="write and check the episodes' scenes, run nothing")
+    _cluster_options(parser)
+    return parser
+
+
+def _verify_parser():
+    parser = argparse.ArgumentParser(prog=f"{PROGRAM} verify", description="Re-runs finished "
+                                     "episodes of a batch and checks that each ends in the state "
+                                     "(hash) its index row records, for every thread count.")
+    parser.add_argument("index", help="the batch's index.csv")
+    parser.add_argument("--sample", type=int, metavar="N", help="only N episodes, drawn at random")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the sample (default 0)")
+    parser.add_argument("--threads", default="1,2", metavar="LIST",
+                        help="OMP_NUM_THREADS of the re-runs, each episode once per entry (default 1,2)")
+    _cluster_options(parser)
+    return parser
+
+
+def _positive(parser, name, value, minimum=1):
+    if value is not None and value < minimum:
+        parser.error(f"{name} must be >= {minimum}")
+
+
+def run_main(argv):
+    parser = _run_parser()
+    args = parser.parse_args(argv)
+    _positive(parser, "--workers", args.workers)
+    _positive(parser, "--retries", args.retries, 0)
+    spec = Spec(args.spec)
+    sim = find_program("fem_cloth_sim", args.sim)
+    out = args.out or os.path.join("fem_cloth_output", "batch", os.path.splitext(os.path.basename(spec.path))[0])
+    batch = Batch(spec, out, sim, say=_say)
+    sweep = f" = {len(spec.points)} sweep points x {spec.episodes} draws" if spec.sweep else ""
+    _say(f"{args.spec}: {_count(len(spec), 'episode')}{sweep}, {len(spec.random)} random and {len(spec.sweep)} "
+         f"swept keys, output {spec.output}, in {batch.out}")
+    jobs = args.workers or default_workers()
+    episodes, kept, todo = batch.prepare(jobs)
+    if args.dry_run or not todo:
+        _say(f"index: {batch.index_path}" if not todo and kept else "dry run: nothing ran")
+        return 0
+    start = time.monotonic()
+    with Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
+        started = time.monotonic() - start
+        _say(f"{runner.describe()} (ready in {started:.1f} s)")
+        run_start = time.monotonic()
+        bad = batch.run(runner, episodes, kept, todo, args.retries)
+        wall = time.monotonic() - run_start
+        workers = runner.workers
+    ran = len(todo)
+    _say(f"{len(episodes)} episodes: {len(episodes) - len(bad)} ok, {len(bad)} not ok; {ran} ran in "
+         f"{wall:.1f} s on {workers} workers ({ran / wall:.2f} episodes/s), {len(kept)} skipped "
+         f"(done before)")
+    for row in bad[:20]:
+        _say(f"  episode {row['episode']}: {row['status']} (exit {row['exit_code'] or '-'}, "
+             f"{row['attempts']} attempts): {row['error']}")
+    if len(bad) > 20:
+        _say(f"  ... and {len(bad) - 20} more (status column of the index)")
+    _say(f"index: {batch.index_path}")
+    return 3 if bad else 0
+
+
+def verify_main(argv):
+    parser = _verify_parser()
+    args = parser.parse_args(argv)
+    _positive(parser, "--workers", args.workers)
+    _positive(parser, "--sample", args.sample)
+    _positive(parser, "--retries", args.retries, 0)
+    try:
+        threads = [int(t) for t in args.threads.split(",") if t.strip()]
+    except ValueError:
+        threads = []
+    if not threads or min(threads) < 1:
+        parser.error(f"--threads must be a comma-separated list of thread counts >= 1, got '{args.threads}'")
+    with Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
+        _say(runner.describe())
+        checked, mismatches = verify(args.index, runner, args.sample, args.seed, threads, args.sim,
+                                     args.retries, say=_say)
+    episodes = len({r["episode"] for r in checked})
+    workers = len({r["worker"] for r in checked})
+    _say(f"verify: {episodes} episodes x threads {','.join(map(str, threads))}: {len(checked)} runs "
+         f"on {workers} workers, {len(checked) - len(mismatches)} ended in the state their index "
+         f"row records")
+    for r in mismatches[:20]:
+        why = r["error"] or f"state {r['state_hash']}, index {r['index_state_hash']}"
+        _say(f"  episode {r['episode']} threads {r['threads']} ({r['worker']}): {why}")
+    _say(f"details: {os.path.join(os.path.dirname(os.path.abspath(args.index)), 'verify.csv')}")
+    if not checked:
+        _say("verify: the index has no finished episode to re-run")
+        return 4
+    return 4 if mismatches else 0
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else argv
+    try:
+        if argv and argv[0] == "verify":
+            return verify_main(argv[1:])
+        return run_main(argv[1:] if argv and argv[0] == "run" else argv)
+    except (SpecError, BatchError) as error:
+        print(f"{PROGRAM}: {error}", file=sys.stderr)
+        return 2
+    except RunnerError as error:
+        print(f"{PROGRAM}: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"\n{PROGRAM}: interrupted; run the same command again to resume", file=sys.stderr)
+        return 130

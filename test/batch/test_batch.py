@@ -1,0 +1,285 @@
+"""fem_cloth_batch end to end, run as a program on a 2-worker Dask cluster bound to 127.0.0.1 (one
+started here and reached with --scheduler, and the program's own local cluster): episodes and
+index complete, the drawn values in the scene files, an episode re-run alone ends in the same
+state, a bad spec refused naming the key, failing episodes reported without stopping the batch,
+resume skipping what is done, verify across thread counts (and catching a wrong hash), and no
+process left behind.
+"""
+
+import csv
+import json
+import logging
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+import uuid
+
+import yaml
+
+from fem_cloth.batch.batch import RESULT_COLUMNS, find_program
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+BATCH = os.path.join(ROOT, "scripts", "fem_cloth_batch")
+SIM = find_program("fem_cloth_sim")
+HANGING = os.path.join(ROOT, "config", "hanging_cloth.yaml")
+CLUSTER = None
+
+
+def setUpModule():
+    global CLUSTER
+    import distributed
+    CLUSTER = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                       dashboard_address=None, silence_logs=logging.ERROR)
+
+
+def tearDownModule():
+    CLUSTER.close()
+
+
+def batch(*args, env=None):
+    done = subprocess.run([sys.executable, BATCH, *args], capture_output=True, text=True, timeout=300,
+                          env=env)
+    return done.returncode, done.stdout, done.stderr
+
+
+def on_cluster(*args):
+    return batch(*args, "--scheduler", CLUSTER.scheduler_address, "--quiet")
+
+
+def read_index(path):
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        return reader.fieldnames, list(reader)
+
+
+class BatchTestCase(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.folder = tempfile.mkdtemp(prefix="fem_cloth_test_batch-")
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.folder)
+
+    @classmethod
+    def write_spec(cls, name, text):
+        path = os.path.join(cls.folder, name)
+        with open(path, "w") as f:
+            f.write(f"scene: {HANGING}\n" + text)
+        return path
+
+
+class TestRun(BatchTestCase):
+    """Six episodes: three draws at each of two sweep points; at the second the explicit step is
+    above the scene's stable step with substepping off, so every episode there fails (exit 3)."""
+
+    SPEC = """episodes: 3
+seed: 11
+set: {mesh.rows: 7, mesh.cols: 7, duration: 0.2}
+sweep:
+  integrator.auto_substep: [true, false]
+random:
+  material.youngs_modulus: {loguniform: [1.0e7, 4.0e7]}
+  damping.mass: {uniform: [0.05, 0.2]}
+  pins.0.grid_vertices: [[0, 0], [0, {integer: [3, 6]}]]
+  mesh.origin: [0, 0, {uniform: [0.0, 0.5]}]
+output: bag
+"""
+
+    @classmethod
+    def setUpClass(cls):
+        super().setUpClass()
+        cls.out = os.path.join(cls.folder, "out")
+        cls.code, cls.stdout, cls.stderr = on_cluster(cls.write_spec("spec.yaml", cls.SPEC), "--out", cls.out)
+        cls.columns, cls.rows = read_index(os.path.join(cls.out, "index.csv"))
+
+    def test_index_has_every_episode_and_column(self):
+        self.assertEqual([int(r["episode"]) for r in self.rows], list(range(6)))
+        varied = ["integrator.auto_substep", "material.youngs_modulus", "damping.mass",
+                  "pins.0.grid_vertices", "mesh.origin"]
+        self.assertEqual(self.columns, ["episode", "draw", "seed"] + varied + RESULT_COLUMNS)
+        self.assertEqual([int(r["draw"]) for r in self.rows], [0, 1, 2, 0, 1, 2])
+
+    def test_episodes_complete(self):
+        for row in self.rows[:3]:
+            self.assertEqual((row["status"], row["exit_code"], row["attempts"]), ("ok", "0", "1"), row["error"])
+            self.assertEqual(int(row["steps"]), 20)  # 0.2 s at dt 0.01
+            self.assertAlmostEqual(float(row["simulated_s"]), 0.2, delta=1e-12)
+            self.assertRegex(row["state_hash"], r"^[0-9a-f]{16}$")
+            for column in ("kinetic_j", "gravity_j", "total_j", "stretch_max", "wall_s"):
+                float(row[column])  # present and a number
+            self.assertTrue(row["worker"].startswith("tcp://127.0.0.1:"))
+            with open(os.path.join(self.out, row["output"]), "rb") as bag:
+                self.assertEqual(bag.read(13), b"#ROSBAG V2.0\n")
+        self.assertEqual(len({r["state_hash"] for r in self.rows[:3]}), 3)
+
+    def test_drawn_values_are_in_the_scene_files(self):
+        for row in self.rows:
+            with open(os.path.join(self.out, row["scene"])) as f:
+                scene = yaml.safe_load(f)
+            e = scene["material"]["youngs_modulus"]
+            self.assertEqual(e, float(row["material.youngs_modulus"]))
+            self.assertTrue(1.0e7 <= e <= 4.0e7)
+            self.assertTrue(0.05 <= scene["damping"]["mass"] <= 0.2)
+            (r0, c0), (r1, c1) = scene["pins"][0]["grid_vertices"]
+            self.assertEqual((r0, c0, r1), (0, 0, 0))
+            self.assertIn(c1, range(3, 7))
+            self.assertEqual(yaml.safe_load(row["pins.0.grid_vertices"]), [[0, 0], [0, c1]])
+            self.assertEqual(scene["mesh"]["rows"], 7)  # from set
+            self.assertEqual(scene["integrator"]["auto_substep"], row["integrator.auto_substep"] == "true")
+            self.assertEqual(scene["integrator"]["name"], "symplectic_euler")  # from the base scene
+
+    def test_failing_episodes_are_reported_and_the_batch_goes_on(self):
+        self.assertEqual(self.code, 3, self.stderr)
+        for row in self.rows[3:]:
+            self.assertEqual((row["status"], row["exit_code"], row["attempts"]), ("failed", "3", "2"))
+            self.assertIn("above the stable step", row["error"])
+            self.assertIn(f"episode {row['episode']}: failed (exit 3, 2 attempts)", self.stdout)
+        self.assertIn("6 episodes: 3 ok, 3 not ok", self.stdout)
+
+    def test_an_episode_reruns_alone_to_the_same_state(self):
+        row = self.rows[1]
+        scene = os.path.join(self.out, row["scene"])
+        for threads in ("1", "2"):
+            summary = os.path.join(self.folder, f"alone-{threads}.json")
+            done = subprocess.run([SIM, "--scene", scene, "--no-output", "--quiet", "--summary-json", summary],
+                                  cwd=self.folder, capture_output=True, text=True, timeout=120,
+                                  env=dict(os.environ, OMP_NUM_THREADS=threads))
+            self.assertEqual(done.returncode, 0, done.stderr)
+            with open(summary) as f:
+                self.assertEqual(json.load(f)["state_hash"], row["state_hash"])
+
+
+class TestRefusals(BatchTestCase):
+    def refused(self, text, *fragments):
+        out = os.path.join(self.folder, "refused")
+        code, stdout, stderr = batch(self.write_spec("bad.yaml", text), "--out", out)
+        self.assertEqual(code, 2, stdout + stderr)
+        self.assertEqual(len(stderr.splitlines()), 1, stderr)
+        for fragment in fragments:
+            self.assertIn(fragment, stderr)
+        self.assertFalse(os.path.exists(os.path.join(out, "index.csv")))
+
+    def test_unknown_spec_key(self):
+        self.refused("episods: 2\n", "unknown key 'episods'")
+
+    def test_unknown_scene_key(self):
+        self.refused("random: {material.youngs_moduls: {uniform: [1.0e7, 2.0e7]}}\n",
+                     "episode 0", "unknown key 'material.youngs_moduls'")
+
+    def test_bad_distribution(self):
+        self.refused("random: {damping.mass: {uniform: [0.3]}}\n", "'damping.mass'", "uniform needs a list of 2")
+
+    def test_a_drawn_value_out_of_range(self):
+        # A normal distribution for Poisson's ratio reaches beyond 0.5 in some episode.
+        self.refused("episodes: 40\nset: {mesh.rows: 3, mesh.cols: 3}\n"
+                     "random: {material.poisson_ratio: {normal: {mean: 0.4, std: 0.1}}}\n",
+                     "material.poisson_ratio must be in [0, 0.5)")
+
+
+class TestResume(BatchTestCase):
+    SPEC = "episodes: 3\nset: {mesh.rows: 5, mesh.cols: 5, duration: 0.1}\n" \
+           "random: {damping.mass: {uniform: [0.0, 0.3]}}\noutput: csv\n"
+
+    def logs(self):
+        return {i: os.stat(os.path.join(self.out, "episodes", f"{i:06d}", "log.txt")).st_mtime_ns for i in range(3)}
+
+    def test_resume_runs_only_what_is_missing(self):
+        self.out = os.path.join(self.folder, "resume")
+        spec = self.write_spec("resume.yaml", self.SPEC)
+        code, stdout, stderr = on_cluster(spec, "--out", self.out)
+        self.assertEqual(code, 0, stdout + stderr)
+        _, first = read_index(os.path.join(self.out, "index.csv"))
+        before = self.logs()
+
+        code, stdout, stderr = on_cluster(spec, "--out", self.out)
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("0 written and checked", stdout)
+        self.assertIn("3 episodes already done (skipped)", stdout)
+        self.assertEqual(self.logs(), before)
+
+        # Episode 1 loses an output; the index's last row (episode 2) is cut short, as by a kill.
+        os.remove(os.path.join(self.out, "episodes", "000001", "trajectory.csv"))
+        index = os.path.join(self.out, "index.csv")
+        with open(index) as f:
+            text = f.read()
+        with open(index, "w") as f:
+            f.write(text[: text.rstrip("\n").rfind("\n") + 40])
+        code, stdout, stderr = on_cluster(spec, "--out", self.out)
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("2 written and checked", stdout)
+        after = self.logs()
+        self.assertEqual(after[0], before[0])
+        self.assertNotEqual(after[1], before[1])
+        self.assertNotEqual(after[2], before[2])
+        _, last = read_index(index)
+        self.assertEqual([(r["episode"], r["status"], r["state_hash"]) for r in last],
+                         [(r["episode"], r["status"], r["state_hash"]) for r in first])
+
+
+class TestVerify(BatchTestCase):
+    # Episode 0 is 48 x 48 vertices, 2 x 47 x 47 = 4418 triangles: above the 4096 elements from
+    # which the element loops run in parallel (kParallelElementThreshold), so two threads take
+    # another path through the code than one.
+    SPEC = """episodes: 1
+set: {duration: 0.05, material.model: arap, integrator.name: projective_dynamics}
+sweep: {mesh.rows: [48, 6], mesh.cols: [48]}
+random: {damping.mass: {uniform: [0.0, 0.3]}}
+output: none
+"""
+
+    def test_verify_across_threads_and_a_wrong_hash(self):
+        out = os.path.join(self.folder, "verify")
+        code, stdout, stderr = on_cluster(self.write_spec("verify.yaml", self.SPEC), "--out", out)
+        self.assertEqual(code, 0, stdout + stderr)
+        index = os.path.join(out, "index.csv")
+        code, stdout, stderr = on_cluster("verify", index, "--threads", "1,2")
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("2 episodes x threads 1,2: 4 runs", stdout)
+        _, checked = read_index(os.path.join(out, "verify.csv"))
+        self.assertEqual([(r["episode"], r["threads"], r["match"]) for r in checked],
+                         [("0", "1", "1"), ("0", "2", "1"), ("1", "1", "1"), ("1", "2", "1")])
+        self.assertFalse(os.path.exists(os.path.join(out, "verify")))  # re-run outputs removed
+
+        columns, rows = read_index(index)
+        rows[1]["state_hash"] = "0123456789abcdef"
+        tampered = os.path.join(out, "tampered.csv")
+        with open(tampered, "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=columns)
+            writer.writeheader()
+            writer.writerows(rows)
+        code, stdout, stderr = on_cluster("verify", tampered, "--threads", "1")
+        self.assertEqual(code, 4, stdout + stderr)
+        self.assertRegex(stdout, r"episode 1 threads 1 \(tcp://127\.0\.0\.1:\d+\): state [0-9a-f]{16}, "
+                                 r"index 0123456789abcdef")
+
+
+class TestLocalCluster(BatchTestCase):
+    def test_own_cluster_on_localhost_leaves_nothing_running(self):
+        marker = uuid.uuid4().hex
+        spec = self.write_spec("local.yaml", "episodes: 2\nset: {mesh.rows: 5, mesh.cols: 5, duration: 0.1}\n"
+                                             "random: {damping.mass: {uniform: [0.0, 0.3]}}\noutput: none\n")
+        out = os.path.join(self.folder, "local")
+        code, stdout, stderr = batch(spec, "--out", out, "--workers", "2",
+                                     env=dict(os.environ, FEM_CLOTH_TEST_MARKER=marker))
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("local cluster on 127.0.0.1, 2 workers", stdout)
+        _, rows = read_index(os.path.join(out, "index.csv"))
+        self.assertEqual([r["status"] for r in rows], ["ok", "ok"])
+        self.assertTrue(all(re.match(r"tcp://127\.0\.0\.1:\d+$", r["worker"]) for r in rows))
+        # Every process the batch started (scheduler, nannies, workers, simulations) carries the
+        # marker in its environment: none may be left.
+        left = []
+        for pid in filter(str.isdigit, os.listdir("/proc")):
+            try:
+                with open(f"/proc/{pid}/environ", "rb") as f:
+                    if f"FEM_CLOTH_TEST_MARKER={marker}".encode() in f.read():
+                        left.append(pid)
+            except OSError:
+                pass
+        self.assertEqual(left, [])
