@@ -1,5 +1,7 @@
-"""fem_cloth_batch end to end, run as a program on a 2-worker Dask cluster bound to 127.0.0.1 (one
-started here and reached with --scheduler, and the program's own local cluster): episodes and
+"""fem_cloth_batch end to end, run as a program on 2-worker Dask clusters bound to 127.0.0.1 (one
+started here as docs/batch.md says, by dask-scheduler and dask-worker, with workers that do not
+have fem_cloth's Python package, reached with --scheduler; and the program's own local cluster):
+episodes and
 index complete, the drawn values in the scene files, an episode re-run alone ends in the same
 state, a bad spec refused naming the key, failing episodes reported without stopping the batch,
 resume skipping what is done, verify across thread counts (and catching a wrong hash), and no
@@ -8,13 +10,14 @@ process left behind.
 
 import csv
 import json
-import logging
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 import unittest
 import uuid
 
@@ -27,18 +30,45 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 BATCH = os.path.join(ROOT, "scripts", "fem_cloth_batch")
 SIM = find_program("fem_cloth_sim")
 HANGING = os.path.join(ROOT, "config", "hanging_cloth.yaml")
-CLUSTER = None
+CLUSTER = {}
 
 
 def setUpModule():
-    global CLUSTER
+    """A scheduler and a worker with two processes of one thread, as on a cluster: started by
+    hand, from another folder, without PYTHONPATH (so without fem_cloth's package)."""
+    folder = tempfile.mkdtemp(prefix="fem_cloth_test_cluster-")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    address_file = os.path.join(folder, "scheduler.json")
+    log = open(os.path.join(folder, "cluster.log"), "w")
+    common = dict(cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+    CLUSTER.update(folder=folder, log=log, processes=[])
+    CLUSTER["processes"].append(subprocess.Popen(
+        [shutil.which("dask-scheduler"), "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+         "--scheduler-file", address_file], **common))
+    deadline = time.monotonic() + 60
+    while not os.path.exists(address_file) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    CLUSTER["processes"].append(subprocess.Popen(
+        [shutil.which("dask-worker"), "--scheduler-file", address_file, "--nworkers", "2", "--nthreads", "1",
+         "--host", "127.0.0.1", "--no-dashboard", "--dashboard-address", "127.0.0.1:0",
+         "--local-directory", folder], **common))
     import distributed
-    CLUSTER = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+    with open(address_file) as f:
+        CLUSTER["address"] = json.load(f)["address"]
+    with distributed.Client(CLUSTER["address"], timeout=60) as client:
+        client.wait_for_workers(2, timeout=60)
 
 
 def tearDownModule():
-    CLUSTER.close()
+    for process in reversed(CLUSTER["processes"]):
+        os.killpg(process.pid, signal.SIGTERM)
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    CLUSTER["log"].close()
+    shutil.rmtree(CLUSTER["folder"], ignore_errors=True)
 
 
 def batch(*args, env=None):
@@ -48,7 +78,7 @@ def batch(*args, env=None):
 
 
 def on_cluster(*args):
-    return batch(*args, "--scheduler", CLUSTER.scheduler_address, "--quiet")
+    return batch(*args, "--scheduler", CLUSTER["address"], "--quiet")
 
 
 def read_index(path):
@@ -259,27 +289,44 @@ output: none
                                  r"index 0123456789abcdef")
 
 
+def marked_processes(marker):
+    """The processes whose environment carries the marker: all the batch started."""
+    found = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/environ", "rb") as f:
+                if f"FEM_CLOTH_TEST_MARKER={marker}".encode() in f.read():
+                    found.append(int(pid))
+        except OSError:
+            pass
+    return found
+
+
 class TestLocalCluster(BatchTestCase):
     def test_own_cluster_on_localhost_leaves_nothing_running(self):
+        import psutil
         marker = uuid.uuid4().hex
-        spec = self.write_spec("local.yaml", "episodes: 2\nset: {mesh.rows: 5, mesh.cols: 5, duration: 0.1}\n"
+        spec = self.write_spec("local.yaml", "episodes: 4\nset: {mesh.rows: 9, mesh.cols: 9, duration: 0.5}\n"
                                              "random: {damping.mass: {uniform: [0.0, 0.3]}}\noutput: none\n")
         out = os.path.join(self.folder, "local")
-        code, stdout, stderr = batch(spec, "--out", out, "--workers", "2",
-                                     env=dict(os.environ, FEM_CLOTH_TEST_MARKER=marker))
-        self.assertEqual(code, 0, stdout + stderr)
+        process = subprocess.Popen([sys.executable, BATCH, spec, "--out", out, "--workers", "2"],
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                   env=dict(os.environ, FEM_CLOTH_TEST_MARKER=marker))
+        # While it runs: every socket the batch's processes listen on is on the loopback interface.
+        listening = set()
+        while process.poll() is None:
+            pids = set(marked_processes(marker))
+            for connection in psutil.net_connections(kind="inet"):
+                if connection.pid in pids and connection.status == psutil.CONN_LISTEN:
+                    listening.add((connection.pid, connection.laddr.ip, connection.laddr.port))
+            time.sleep(0.05)
+        stdout, stderr = process.communicate()
+        self.assertEqual(process.returncode, 0, stdout + stderr)
         self.assertIn("local cluster on 127.0.0.1, 2 workers", stdout)
+        self.assertTrue(listening)
+        self.assertEqual({ip for _, ip, _ in listening}, {"127.0.0.1"}, listening)
         _, rows = read_index(os.path.join(out, "index.csv"))
-        self.assertEqual([r["status"] for r in rows], ["ok", "ok"])
+        self.assertEqual([r["status"] for r in rows], ["ok"] * 4)
         self.assertTrue(all(re.match(r"tcp://127\.0\.0\.1:\d+$", r["worker"]) for r in rows))
-        # Every process the batch started (scheduler, nannies, workers, simulations) carries the
-        # marker in its environment: none may be left.
-        left = []
-        for pid in filter(str.isdigit, os.listdir("/proc")):
-            try:
-                with open(f"/proc/{pid}/environ", "rb") as f:
-                    if f"FEM_CLOTH_TEST_MARKER={marker}".encode() in f.read():
-                        left.append(pid)
-            except OSError:
-                pass
-        self.assertEqual(left, [])
+        # Scheduler, nannies, workers, simulations: none may be left.
+        self.assertEqual(marked_processes(marker), [])

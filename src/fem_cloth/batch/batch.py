@@ -16,7 +16,7 @@ import shutil
 import subprocess
 import time
 
-from fem_cloth.batch.command import CommandTask
+from fem_cloth.batch.command import command_task
 from fem_cloth.batch.spec import SpecError
 
 INDEX = "index.csv"
@@ -276,15 +276,15 @@ class Batch:
         tasks = []
         for episode in todo:
             files = self.files(episode.index)
-            task = CommandTask(f"episode {episode.index}", files.command(self.sim, files.scene, self.spec.every),
-                               threads=1, timeout=self.spec.timeout, log=files.log, summary=files.summary)
-            by_key[task.key] = episode
+            task = command_task(f"episode {episode.index}", files.command(self.sim, files.scene, self.spec.every),
+                                threads=1, timeout=self.spec.timeout, log=files.log, summary=files.summary)
+            by_key[task["key"]] = episode
             tasks.append(task)
         with open(self.index_path, "a", newline="", encoding="utf-8") as index:
             writer = csv.DictWriter(index, fieldnames=self.columns, extrasaction="ignore")
 
             def record(task, result):
-                episode = by_key[task.key]
+                episode = by_key[task["key"]]
                 rows[episode.index] = self._row(episode, result)
                 writer.writerow(rows[episode.index])
                 index.flush()
@@ -317,6 +317,8 @@ def verify(index_path, runner, sample=None, seed=0, threads=(1, 2), sim=None, re
     if sha256_file(program) != manifest.get("sim_sha256"):
         say(f"verify: note: {program} is not the fem_cloth_sim that ran the batch")
     done = [rows[i] for i in sorted(rows) if rows[i]["status"] == "ok"]
+    if not done:
+        raise BatchError(f"{index_path}: no episode ended ok: nothing to verify")
     if sample is not None and sample < len(done):
         done = sorted(random.Random(seed).sample(done, sample), key=lambda r: int(r["episode"]))
     tasks, expected = [], {}
@@ -325,15 +327,15 @@ def verify(index_path, runner, sample=None, seed=0, threads=(1, 2), sim=None, re
             files = EpisodeFiles(os.path.join(out, "verify", f"{int(row['episode']):06d}-t{n}"),
                                  manifest["output"])
             os.makedirs(files.folder, exist_ok=True)
-            task = CommandTask(f"episode {row['episode']} threads {n}",
-                               files.command(program, os.path.join(out, row["scene"]), manifest.get("every")),
-                               threads=n, summary=files.summary, remove_after=[files.folder])
+            task = command_task(f"episode {row['episode']} threads {n}",
+                                files.command(program, os.path.join(out, row["scene"]), manifest.get("every")),
+                                threads=n, summary=files.summary, remove_after=[files.folder])
             tasks.append(task)
-            expected[task.key] = (row, n)
+            expected[task["key"]] = (row, n)
     checked = []
 
     def record(task, result):
-        row, n = expected[task.key]
+        row, n = expected[task["key"]]
         state_hash = _field(result["summary"], ("state_hash",)) or ""
         checked.append({"episode": int(row["episode"]), "threads": n, "state_hash": state_hash,
                         "index_state_hash": row["state_hash"],

@@ -7,11 +7,12 @@
 
 Exit status: 0 every episode ok (verify: every re-run identical), 2 a bad spec, index or command
 line, 3 some episodes failed (listed, and in the index), 4 verify found a different state,
-1 the cluster could not be started or reached, 130 interrupted.
+1 the cluster could not be started or reached, 128 + N stopped by signal N (130 Ctrl-C).
 """
 
 import argparse
 import os
+import signal
 import sys
 import time
 
@@ -142,8 +143,21 @@ def verify_main(argv):
     return 4 if mismatches else 0
 
 
+class _Stopped(KeyboardInterrupt):
+    def __init__(self, signum):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _stop(signum, frame):
+    raise _Stopped(signum)
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
+    # SIGTERM (a job scheduler's, kill's) stops the batch as Ctrl-C does: the cluster is shut
+    # down, the simulations stop with their workers, the index keeps what finished.
+    signal.signal(signal.SIGTERM, _stop)
     try:
         if argv and argv[0] == "verify":
             return verify_main(argv[1:])
@@ -154,6 +168,8 @@ def main(argv=None):
     except RunnerError as error:
         print(f"{PROGRAM}: {error}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"\n{PROGRAM}: interrupted; run the same command again to resume", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as stop:
+        signum = stop.signum if isinstance(stop, _Stopped) else signal.SIGINT
+        print(f"\n{PROGRAM}: stopped by {signal.Signals(signum).name}; the same command resumes",
+              file=sys.stderr)
+        return 128 + signum

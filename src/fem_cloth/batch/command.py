@@ -18,13 +18,13 @@ import time
 EXIT_STATUS = {0: "ok", 2: "bad_input", 3: "failed"}
 
 
-class CommandTask:
-    """What to run. `summary`: a JSON file the program writes, read back into the result;
-    `remove_after`: files the run leaves that nobody keeps (verify's re-run outputs)."""
-
-    def __init__(self, key, argv, threads=1, timeout=None, log=None, summary=None, remove_after=()):
-        self.key, self.argv, self.threads, self.timeout = key, list(argv), threads, timeout
-        self.log, self.summary, self.remove_after = log, summary, tuple(remove_after)
+def command_task(key, argv, threads=1, timeout=None, log=None, summary=None, remove_after=()):
+    """What to run, as a plain dict (Dask pickles task arguments by reference to their class,
+    which a worker without this package could not load). `summary`: a JSON file the program
+    writes, read back into the result; `remove_after`: files the run leaves that nobody keeps
+    (verify's re-run outputs)."""
+    return {"key": key, "argv": list(argv), "threads": threads, "timeout": timeout, "log": log,
+            "summary": summary, "remove_after": list(remove_after)}
 
 
 def _die_with_parent():
@@ -54,43 +54,46 @@ def _error_line(stderr, code):
 def run_command(task):
     """Runs the task; returns a dict: key, status (ok, bad_input, failed, error), exit_code,
     error, wall_s, worker, summary (the JSON the program wrote, or None)."""
-    env = dict(os.environ, OMP_NUM_THREADS=str(task.threads), OMP_WAIT_POLICY="passive")
-    result = {"key": task.key, "status": "error", "exit_code": None, "error": "", "wall_s": None,
-              "worker": _worker_name(), "summary": None}
-    if task.summary and os.path.exists(task.summary):
-        os.remove(task.summary)  # a summary from an earlier run must not pass for this one's
+    argv, summary, log = task["argv"], task["summary"], task["log"]
+    env = dict(os.environ, OMP_NUM_THREADS=str(task["threads"]), OMP_WAIT_POLICY="passive")
+    worker = _worker_name()
+    result = {"key": task["key"], "status": "error", "exit_code": None, "error": "", "wall_s": None,
+              "worker": worker, "summary": None}
+    if summary and os.path.exists(summary):
+        os.remove(summary)  # a summary from an earlier run must not pass for this one's
     start = time.monotonic()
     try:
-        done = subprocess.run(task.argv, stdin=subprocess.DEVNULL, capture_output=True, text=True,
-                              env=env, timeout=task.timeout, preexec_fn=_die_with_parent, check=False)
+        done = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True, text=True, env=env,
+                              timeout=task["timeout"], preexec_fn=_die_with_parent, check=False)
         code, stdout, stderr = done.returncode, done.stdout, done.stderr
         result["error"] = "" if code == 0 else _error_line(stderr, code)
     except subprocess.TimeoutExpired as expired:
-        code, stdout, stderr = None, expired.stdout or "", expired.stderr or ""
-        stdout, stderr = [s.decode(errors="replace") if isinstance(s, bytes) else s for s in (stdout, stderr)]
-        result["error"] = f"timed out after {task.timeout} s"
+        code = None
+        stdout, stderr = [s.decode(errors="replace") if isinstance(s, bytes) else (s or "")
+                          for s in (expired.stdout, expired.stderr)]
+        result["error"] = f"timed out after {task['timeout']} s"
     except OSError as error:
         code, stdout, stderr = None, "", ""
-        result["error"] = f"cannot run {task.argv[0]} on {result['worker']}: {error.strerror}"
-    result["wall_s"] = time.monotonic() - start
+        result["error"] = f"cannot run {argv[0]} on {worker}: {error.strerror}"
+    result["wall_s"] = wall = time.monotonic() - start
     result["exit_code"] = code
     result["status"] = EXIT_STATUS.get(code, "error")
-    if task.log:
+    if log:
         try:
-            with open(task.log, "w", encoding="utf-8") as log:
-                log.write(f"$ {' '.join(task.argv)}\n# OMP_NUM_THREADS={task.threads}, worker "
-                          f"{result['worker']}, exit {code}, {result['wall_s']:.3f} s\n{stdout}{stderr}")
+            with open(log, "w", encoding="utf-8") as f:
+                f.write(f"$ {' '.join(argv)}\n# OMP_NUM_THREADS={task['threads']}, worker {worker}, "
+                        f"exit {code}, {wall:.3f} s\n{stdout}{stderr}")
         except OSError as error:
-            result["status"], result["error"] = "error", f"cannot write the log {task.log}: {error.strerror}"
+            result["status"], result["error"] = "error", f"cannot write the log {log}: {error.strerror}"
     # A finished run must have written its summary; a failed one may have (the state reached).
-    if task.summary and (code == 0 or (code == 3 and os.path.exists(task.summary))):
+    if summary and (code == 0 or (code == 3 and os.path.exists(summary))):
         try:
-            with open(task.summary, encoding="utf-8") as f:
+            with open(summary, encoding="utf-8") as f:
                 result["summary"] = json.load(f)
         except (OSError, ValueError) as error:
             result["status"] = "error"
-            result["error"] = f"no summary from {os.path.basename(task.argv[0])} ({task.summary}: {error})"
-    for path in task.remove_after:
+            result["error"] = f"no summary from {os.path.basename(argv[0])} ({summary}: {error})"
+    for path in task["remove_after"]:
         if os.path.isdir(path):
             shutil.rmtree(path, ignore_errors=True)
         elif os.path.lexists(path):

@@ -20,6 +20,15 @@ class RunnerError(Exception):
     """The cluster could not be started or reached."""
 
 
+def _lost(task, error):
+    """The result of a task that raised instead of returning (a worker that died, or could not
+    load the task): as_completed gives (type, exception, traceback)."""
+    if isinstance(error, tuple) and len(error) == 3:
+        error = error[1]
+    return {"key": task["key"], "status": "error", "exit_code": None, "wall_s": None, "worker": "",
+            "summary": None, "error": f"the task failed on its worker: {type(error).__name__}: {error}"}
+
+
 def default_workers():
     try:
         return len(os.sched_getaffinity(0))
@@ -89,9 +98,12 @@ class Runner:
             else:
                 # Worker scratch space in a folder of its own, not dask-worker-space/ in the cwd.
                 self.scratch = tempfile.TemporaryDirectory(prefix="fem_cloth_batch-dask-")
+                # Every socket on 127.0.0.1, the HTTP servers of scheduler and workers too (they
+                # bind every interface unless told).
                 self.cluster = distributed.LocalCluster(
                     n_workers=self.requested_workers, threads_per_worker=1, processes=True,
-                    host="127.0.0.1", dashboard_address=None, silence_logs=logging.ERROR,
+                    host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                    worker_dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
                     local_directory=self.scratch.name)
                 self.client = distributed.Client(self.cluster)
         except (OSError, TimeoutError) as error:
@@ -129,26 +141,25 @@ class Runner:
         futures = []
         for task in tasks:
             future = self.client.submit(command.run_command, task, pure=False)
-            by_future[future.key], attempts[task.key], errors[task.key] = task, 1, []
+            by_future[future.key], attempts[task["key"]], errors[task["key"]] = task, 1, []
             futures.append(future)
         failed = 0
         pending = as_completed(futures, with_results=True, raise_errors=False)
         try:
             for future, result in pending:
                 task = by_future.pop(future.key)
-                if isinstance(result, BaseException) or future.status == "error":
-                    result = {"key": task.key, "status": "error", "exit_code": None,
-                              "error": f"the task was lost: {result!r}", "wall_s": None,
-                              "worker": "", "summary": None}
-                if result["status"] != "ok" and attempts[task.key] <= retries:
-                    errors[task.key].append(result["error"])
-                    attempts[task.key] += 1
+                if future.status == "error":
+                    result = _lost(task, result)
+                key = task["key"]
+                if result["status"] != "ok" and attempts[key] <= retries:
+                    errors[key].append(result["error"])
+                    attempts[key] += 1
                     retry = self.client.submit(command.run_command, task, pure=False)
                     by_future[retry.key] = task
                     pending.add(retry)
                     continue
-                result["attempts"] = attempts[task.key]
-                result["earlier_errors"] = errors[task.key]
+                result["attempts"] = attempts[key]
+                result["earlier_errors"] = errors[key]
                 failed += result["status"] != "ok"
                 results.append(result)
                 on_result(task, result)
