@@ -212,6 +212,18 @@ class TestRefusals(BatchTestCase):
                      "material.poisson_ratio must be in [0, 0.5)")
 
 
+    def test_one_batch_at_a_time_in_a_folder(self):
+        import fcntl
+        out = os.path.join(self.folder, "busy")
+        os.makedirs(out)
+        with open(os.path.join(out, ".lock"), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # as a running fem_cloth_batch holds it
+            code, stdout, stderr = batch(self.write_spec("busy.yaml", "set: {duration: 0.1}\n"), "--out", out)
+        self.assertEqual(code, 2, stdout + stderr)
+        self.assertIn(f"another fem_cloth_batch is working in {out}", stderr)
+        self.assertEqual(os.listdir(out), [".lock"])
+
+
 class TestResume(BatchTestCase):
     SPEC = "episodes: 3\nset: {mesh.rows: 5, mesh.cols: 5, duration: 0.1}\n" \
            "random: {damping.mass: {uniform: [0.0, 0.3]}}\noutput: csv\n"

@@ -7,7 +7,9 @@ trajectory.csv and energy.csv). Every path in the index is relative to the batch
 """
 
 import concurrent.futures
+import contextlib
 import csv
+import fcntl
 import hashlib
 import json
 import os
@@ -136,6 +138,18 @@ class EpisodeFiles:
 
     def complete(self):
         return all(os.path.isfile(p) for p in [self.scene, self.summary] + self.outputs)
+
+
+@contextlib.contextmanager
+def locked(folder):
+    """One fem_cloth_batch at a time in a batch folder (two would write the same files)."""
+    os.makedirs(folder, exist_ok=True)
+    with open(os.path.join(folder, ".lock"), "w") as lock:
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise BatchError(f"another fem_cloth_batch is working in {folder}") from None
+        yield
 
 
 def check_scene(sim, base, overrides, write=None):

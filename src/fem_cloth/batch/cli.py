@@ -16,7 +16,7 @@ import signal
 import sys
 import time
 
-from fem_cloth.batch.batch import Batch, BatchError, find_program, verify
+from fem_cloth.batch.batch import Batch, BatchError, find_program, locked, verify
 from fem_cloth.batch.runner import Runner, RunnerError, default_workers
 from fem_cloth.batch.spec import Spec, SpecError
 
@@ -25,6 +25,14 @@ PROGRAM = "fem_cloth_batch"
 
 def _say(text):
     print(f"{PROGRAM}: {text}", flush=True)
+
+
+def _load():
+    """The load average (1, 5, 15 min): throughput figures mean little without it."""
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "unknown"
 
 
 def _count(n, what):
@@ -86,19 +94,19 @@ def run_main(argv):
     sweep = f" = {len(spec.points)} sweep points x {spec.episodes} draws" if spec.sweep else ""
     _say(f"{args.spec}: {_count(len(spec), 'episode')}{sweep}, {len(spec.random)} random and {len(spec.sweep)} "
          f"swept keys, output {spec.output}, in {batch.out}")
-    jobs = args.workers or default_workers()
-    episodes, kept, todo = batch.prepare(jobs)
-    if args.dry_run or not todo:
-        _say(f"index: {batch.index_path}" if not todo and kept else "dry run: nothing ran")
-        return 0
-    start = time.monotonic()
-    with Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
-        started = time.monotonic() - start
-        _say(f"{runner.describe()} (ready in {started:.1f} s)")
-        run_start = time.monotonic()
-        bad = batch.run(runner, episodes, kept, todo, args.retries)
-        wall = time.monotonic() - run_start
-        workers = runner.workers
+    with locked(batch.out):
+        episodes, kept, todo = batch.prepare(args.workers or default_workers())
+        if args.dry_run or not todo:
+            _say(f"index: {batch.index_path}" if not todo and kept else "dry run: nothing ran")
+            return 0
+        start = time.monotonic()
+        with Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
+            _say(f"{runner.describe()} (ready in {time.monotonic() - start:.1f} s; load average "
+                 f"{_load()})")
+            run_start = time.monotonic()
+            bad = batch.run(runner, episodes, kept, todo, args.retries)
+            wall = time.monotonic() - run_start
+            workers = runner.workers
     ran = len(todo)
     _say(f"{len(episodes)} episodes: {len(episodes) - len(bad)} ok, {len(bad)} not ok; {ran} ran in "
          f"{wall:.1f} s on {workers} workers ({ran / wall:.2f} episodes/s), {len(kept)} skipped "
@@ -108,7 +116,7 @@ def run_main(argv):
              f"{row['attempts']} attempts): {row['error']}")
     if len(bad) > 20:
         _say(f"  ... and {len(bad) - 20} more (status column of the index)")
-    _say(f"index: {batch.index_path}")
+    _say(f"index: {batch.index_path} (load average {_load()})")
     return 3 if bad else 0
 
 
@@ -124,7 +132,8 @@ def verify_main(argv):
         threads = []
     if not threads or min(threads) < 1:
         parser.error(f"--threads must be a comma-separated list of thread counts >= 1, got '{args.threads}'")
-    with Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
+    with locked(os.path.dirname(os.path.abspath(args.index))), \
+            Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
         _say(runner.describe())
         checked, mismatches = verify(args.index, runner, args.sample, args.seed, threads, args.sim,
                                      args.retries, say=_say)
