@@ -138,18 +138,18 @@ class Runner:
 
         progress = Progress(label, len(tasks), enabled=not self.quiet)
         by_future, attempts, errors, results = {}, {}, {}, []
-        futures = []
+        pending = as_completed(with_results=True, raise_errors=False)
         for task in tasks:
             future = self.client.submit(command.run_command, task, pure=False)
             by_future[future.key], attempts[task["key"]], errors[task["key"]] = task, 1, []
-            futures.append(future)
+            pending.add(future)
         failed = 0
-        pending = as_completed(futures, with_results=True, raise_errors=False)
         try:
             for future, result in pending:
                 task = by_future.pop(future.key)
-                if future.status == "error":
+                if future.status != "finished":  # raised, or cancelled with a lost scheduler
                     result = _lost(task, result)
+                del future
                 key = task["key"]
                 if result["status"] != "ok" and attempts[key] <= retries:
                     errors[key].append(result["error"])
