@@ -264,6 +264,20 @@ class TestResume(BatchTestCase):
                          [(r["episode"], r["status"], r["state_hash"]) for r in first])
 
 
+class TestTimeout(BatchTestCase):
+    def test_an_episode_over_its_time_is_stopped(self):
+        # 100 s of a 33 x 33 cloth takes minutes: stopped after 0.5 s, twice (one retry).
+        out = os.path.join(self.folder, "timeout")
+        spec = self.write_spec("timeout.yaml", "set: {duration: 100.0}\ntimeout: 0.5\noutput: none\n")
+        code, stdout, stderr = on_cluster(spec, "--out", out)
+        self.assertEqual(code, 3, stdout + stderr)
+        _, rows = read_index(os.path.join(out, "index.csv"))
+        self.assertEqual([(r["status"], r["attempts"]) for r in rows], [("error", "2")])
+        self.assertEqual(rows[0]["error"], "timed out after 0.5 s")
+        scene = os.path.join(out, rows[0]["scene"])
+        self.assertEqual(subprocess.run(["pgrep", "-f", scene], capture_output=True).stdout, b"")
+
+
 class TestVerify(BatchTestCase):
     # Episode 0 is 48 x 48 vertices, 2 x 47 x 47 = 4418 triangles: above the 4096 elements from
     # which the element loops run in parallel (kParallelElementThreshold), so two threads take
