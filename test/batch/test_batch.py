@@ -29,6 +29,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
 BATCH = os.path.join(ROOT, "scripts", "fem_cloth_batch")
 SIM = find_program("fem_cloth_sim")
+REPORT = find_program("fem_cloth_report")
 HANGING = os.path.join(ROOT, "config", "hanging_cloth.yaml")
 CLUSTER = {}
 
@@ -326,6 +327,45 @@ def marked_processes(marker):
         except OSError:
             pass
     return found
+
+
+class TestReportRunner(BatchTestCase):
+    """The accuracy report's stability cells as runner tasks give the report that running them
+    in the report's own process gives (all but the wall times)."""
+
+    SELECTION = ["--small", "--study", "stability", "--cases", "pull_corner", "--materials", "stvk",
+                 "--dts", "0.03333333333333333", "-q"]
+
+    @staticmethod
+    def matrix(out):
+        with open(os.path.join(out, "stability.csv"), newline="") as f:
+            rows = list(csv.DictReader(f))
+        for row in rows:
+            row.pop("wall_s")
+        return rows
+
+    def test_cells_on_the_runner_make_the_same_report(self):
+        here, there = os.path.join(self.folder, "in_process"), os.path.join(self.folder, "runner")
+        done = subprocess.run([REPORT, *self.SELECTION, "--out", here], capture_output=True, text=True, timeout=300)
+        self.assertEqual(done.returncode, 0, done.stderr)
+        code, stdout, stderr = batch("report", "--scheduler", CLUSTER["address"], "--quiet", "--report", REPORT,
+                                     "--", *self.SELECTION, "--out", there)
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("5 stability cells in", stdout)
+        # 1 case x 1 material x 1 stiffness x 5 integrators x 1 step.
+        self.assertEqual(len(self.matrix(here)), 5)
+        self.assertEqual(self.matrix(there), self.matrix(here))
+        matrix = lambda out: open(os.path.join(out, "summary.txt")).read().split("report:")[0]  # noqa: E731
+        self.assertEqual(matrix(there), matrix(here))
+
+        # A cell without its result: the report refuses, naming it.
+        results = os.path.join(there, "stability_cells", "results")
+        first = sorted(os.listdir(results))[0]
+        os.remove(os.path.join(results, first))
+        done = subprocess.run([REPORT, *self.SELECTION, "--out", there, "--from-cell-results", results],
+                              capture_output=True, text=True, timeout=300)
+        self.assertEqual(done.returncode, 2)
+        self.assertIn("no result for cell 0 (pull_corner stvk cotton symplectic_euler dt 1/30)", done.stderr)
 
 
 class TestLocalCluster(BatchTestCase):

@@ -4,6 +4,8 @@
                   [--sim PATH] [--retries N] [--dry-run] [--quiet]
   fem_cloth_batch verify DIR/index.csv [--sample N] [--seed S] [--threads 1,2]
                   [--scheduler ADDRESS | --workers N] [--sim PATH] [--quiet]
+  fem_cloth_batch report [--scheduler ADDRESS | --workers N] [--report PATH] -- REPORT_ARGS
+                  the accuracy report (scripts/report runs this) with its stability cells as tasks
 
 Exit status: 0 every episode ok (verify: every re-run identical), 2 a bad spec, index or command
 line, 3 some episodes failed (listed, and in the index), 4 verify found a different state,
@@ -13,10 +15,12 @@ line, 3 some episodes failed (listed, and in the index), 4 verify found a differ
 import argparse
 import os
 import signal
+import subprocess
 import sys
 import time
 
 from fem_cloth.batch.batch import Batch, BatchError, find_program, locked, verify
+from fem_cloth.batch.report import run_report
 from fem_cloth.batch.runner import Runner, RunnerError, default_workers
 from fem_cloth.batch.spec import Spec, SpecError
 
@@ -39,14 +43,15 @@ def _count(n, what):
     return f"{n} {what}{'' if n == 1 else 's'}"
 
 
-def _cluster_options(parser):
+def _cluster_options(parser, sim=True):
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--scheduler", metavar="ADDRESS",
                        help="an existing Dask scheduler (tcp://HOST:8786); default: a local cluster")
     group.add_argument("--workers", type=int, metavar="N",
                        help=f"local cluster workers, one thread each (default: the cores, {default_workers()})")
-    parser.add_argument("--sim", metavar="PATH", help="the fem_cloth_sim to run (default: this source "
-                        "tree's build, else the sourced workspace, else PATH); workers need it at the same path")
+    if sim:
+        parser.add_argument("--sim", metavar="PATH", help="the fem_cloth_sim to run (default: this source "
+                            "tree's build, else the sourced workspace, else PATH); workers need it at the same path")
     parser.add_argument("--retries", type=int, default=1, metavar="N",
                         help="runs again a task that did not end ok, up to N more times (default 1)")
     parser.add_argument("--quiet", "-q", action="store_true", help="no progress line")
@@ -74,6 +79,18 @@ def _verify_parser():
     parser.add_argument("--threads", default="1,2", metavar="LIST",
                         help="OMP_NUM_THREADS of the re-runs, each episode once per entry (default 1,2)")
     _cluster_options(parser)
+    return parser
+
+
+def _report_parser():
+    parser = argparse.ArgumentParser(prog=f"{PROGRAM} report", description="The accuracy report "
+                                     "(docs/accuracy.md): fem_cloth_report with its stability cells "
+                                     "run as tasks on Dask (scripts/report runs this).")
+    parser.add_argument("--report", metavar="PATH", help="the fem_cloth_report to run (default: as --sim)")
+    parser.add_argument("--tasks-per-worker", type=int, default=4, metavar="K",
+                        help="cut the cells into about K tasks per worker (default 4)")
+    _cluster_options(parser, sim=False)
+    parser.add_argument("report_args", nargs=argparse.REMAINDER, help="-- then fem_cloth_report's options")
     return parser
 
 
@@ -162,6 +179,19 @@ def _stop(signum, frame):
     raise _Stopped(signum)
 
 
+def report_main(argv):
+    parser = _report_parser()
+    args = parser.parse_args(argv)
+    _positive(parser, "--workers", args.workers)
+    _positive(parser, "--tasks-per-worker", args.tasks_per_worker)
+    report_args = args.report_args[1:] if args.report_args[:1] == ["--"] else args.report_args
+    report = find_program("fem_cloth_report", args.report)
+    with Runner(args.scheduler, args.workers, quiet=args.quiet) as runner:
+        final = run_report(runner, report, report_args, args.tasks_per_worker, say=_say)
+    # The report itself, with the cluster gone: its work-precision timings run alone.
+    return subprocess.run([report, *final], check=False).returncode
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     # SIGTERM (a job scheduler's, kill's) stops the batch as Ctrl-C does: the cluster is shut
@@ -170,6 +200,8 @@ def main(argv=None):
     try:
         if argv and argv[0] == "verify":
             return verify_main(argv[1:])
+        if argv and argv[0] == "report":
+            return report_main(argv[1:])
         return run_main(argv[1:] if argv and argv[0] == "run" else argv)
     except (SpecError, BatchError) as error:
         print(f"{PROGRAM}: {error}", file=sys.stderr)

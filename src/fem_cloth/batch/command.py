@@ -18,13 +18,15 @@ import time
 EXIT_STATUS = {0: "ok", 2: "bad_input", 3: "failed"}
 
 
-def command_task(key, argv, threads=1, timeout=None, log=None, summary=None, remove_after=()):
+def command_task(key, argv, threads=1, timeout=None, log=None, summary=None, remove_after=(),
+                 ok_exit_codes=(0,)):
     """What to run, as a plain dict (Dask pickles task arguments by reference to their class,
     which a worker without this package could not load). `summary`: a JSON file the program
     writes, read back into the result; `remove_after`: files the run leaves that nobody keeps
-    (verify's re-run outputs)."""
+    (verify's re-run outputs); `ok_exit_codes`: the exit statuses that count as done (the report's
+    4, a non-finite cell, is a result to report, not a failed run)."""
     return {"key": key, "argv": list(argv), "threads": threads, "timeout": timeout, "log": log,
-            "summary": summary, "remove_after": list(remove_after)}
+            "summary": summary, "remove_after": list(remove_after), "ok_exit_codes": list(ok_exit_codes)}
 
 
 def _die_with_parent():
@@ -77,7 +79,10 @@ def run_command(task):
         result["error"] = f"cannot run {argv[0]} on {worker}: {error.strerror}"
     result["wall_s"] = wall = time.monotonic() - start
     result["exit_code"] = code
-    result["status"] = EXIT_STATUS.get(code, "error")
+    done_ok = code in task["ok_exit_codes"]
+    result["status"] = "ok" if done_ok else EXIT_STATUS.get(code, "error")
+    if done_ok:
+        result["error"] = ""
     if log:
         try:
             with open(log, "w", encoding="utf-8") as f:
@@ -86,7 +91,7 @@ def run_command(task):
         except OSError as error:
             result["status"], result["error"] = "error", f"cannot write the log {log}: {error.strerror}"
     # A finished run must have written its summary; a failed one may have (the state reached).
-    if summary and (code == 0 or (code == 3 and os.path.exists(summary))):
+    if summary and (done_ok or (code == 3 and os.path.exists(summary))):
         try:
             with open(summary, encoding="utf-8") as f:
                 result["summary"] = json.load(f)
