@@ -538,18 +538,33 @@ void runCells(const Options& opt, std::vector<CellRun>& cells, std::size_t first
   }
 }
 
-// ------------------------------------------------------------------------------------------------
-// Cells as runner tasks: the cell list, one slice's results, and the results read back. JSON
-// numbers keep every double exactly; the non-finite ones (a minimum over no steps) as text.
-// ------------------------------------------------------------------------------------------------
-using Json = nlohmann::ordered_json;
-
-Json numberJson(double v) {
-  if (std::isfinite(v)) return v;
-  return std::isnan(v) ? "nan" : (v > 0 ? "inf" : "-inf");
+// The cell's row of stability.csv (after the header stabilityHeader()).
+const char* stabilityHeader() {
+  return "case,material,stiffness,youngs_modulus,poisson_ratio,integrator,dt,verdict,steps,"
+         "total_steps,t_reached,rollbacks,max_substeps,substeps,newton_iterations,energy_growth,"
+         "min_j,min_j_end,max_stretch,wall_s,error";
 }
 
-double jsonNumber(const Json& j) { return j.is_string() ? std::stod(j.get<std::string>()) : j.get<double>(); }
+std::string stabilityRow(const CellRun& c) {
+  const RunResult& r = c.result.run;
+  const std::uint64_t totalSteps = static_cast<std::uint64_t>(std::llround(c.duration / c.cell.dt));
+  std::ostringstream row;
+  row << c.cell.caseName << ',' << c.cell.material << ',' << c.level.name << ','
+      << num(c.level.youngsModulus) << ',' << c.level.poissonRatio << ',' << c.cell.integrator
+      << ',' << num(c.cell.dt, 17) << ',' << c.result.verdict << ',' << r.steps << ',' << totalSteps
+      << ',' << num(r.simulated) << ',' << r.rollbacks << ',' << r.maxSubsteps << ','
+      << r.substeps << ',' << r.newtonIterations << ',' << num(r.energyGrowth) << ','
+      << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ','
+      << (std::isfinite(r.minJEnd) ? num(r.minJEnd) : "") << ',' << num(r.maxStretch) << ','
+      << num(r.wall) << ',' << csvText(r.error);
+  return row.str();
+}
+
+// ------------------------------------------------------------------------------------------------
+// Cells as runner tasks: the cell list, and each slice's results — per cell its verdict and its
+// row of stability.csv, as this program wrote them — read back in the end.
+// ------------------------------------------------------------------------------------------------
+using Json = nlohmann::ordered_json;
 
 Json cellIdentity(const CellRun& c, std::size_t index) {
   return Json{{"index", index},          {"case", c.cell.caseName}, {"material", c.cell.material},
@@ -557,42 +572,10 @@ Json cellIdentity(const CellRun& c, std::size_t index) {
               {"dt", c.cell.dt},          {"weight", c.duration / c.cell.dt}};
 }
 
-Json cellResultJson(const CellRun& c, std::size_t index) {
-  const RunResult& r = c.result.run;
-  Json j = cellIdentity(c, index);
-  j["verdict"] = c.result.verdict;
-  j["duration"] = c.result.duration;
-  j["run"] = Json{{"outcome", outcomeName(r.outcome)}, {"error", r.error}, {"integrator", r.integrator},
-                  {"wall", r.wall}, {"simulated", r.simulated}, {"steps", r.steps},
-                  {"substeps", r.substeps}, {"max_substeps", r.maxSubsteps}, {"rollbacks", r.rollbacks},
-                  {"newton_iterations", r.newtonIterations}, {"energy_growth", numberJson(r.energyGrowth)},
-                  {"balance_end", numberJson(r.balanceEnd)}, {"balance_max_abs", numberJson(r.balanceMaxAbs)},
-                  {"max_stretch", numberJson(r.maxStretch)}, {"min_j", numberJson(r.minJ)},
-                  {"min_j_end", numberJson(r.minJEnd)}, {"final_hash", r.finalHash}};
-  return j;
-}
-
-void readCellResult(const Json& j, CellResult& out) {
-  const Json& r = j.at("run");
-  out.verdict = j.at("verdict").get<std::string>();
-  out.duration = j.at("duration").get<double>();
-  RunResult& run = out.run;
-  run.error = r.at("error").get<std::string>();
-  run.integrator = r.at("integrator").get<std::string>();
-  run.wall = r.at("wall").get<double>();
-  run.simulated = r.at("simulated").get<double>();
-  run.steps = r.at("steps").get<std::uint64_t>();
-  run.substeps = r.at("substeps").get<std::uint64_t>();
-  run.maxSubsteps = r.at("max_substeps").get<std::uint64_t>();
-  run.rollbacks = r.at("rollbacks").get<std::uint64_t>();
-  run.newtonIterations = r.at("newton_iterations").get<std::uint64_t>();
-  run.energyGrowth = jsonNumber(r.at("energy_growth"));
-  run.balanceEnd = jsonNumber(r.at("balance_end"));
-  run.balanceMaxAbs = jsonNumber(r.at("balance_max_abs"));
-  run.maxStretch = jsonNumber(r.at("max_stretch"));
-  run.minJ = jsonNumber(r.at("min_j"));
-  run.minJEnd = jsonNumber(r.at("min_j_end"));
-  run.finalHash = r.at("final_hash").get<std::string>();
+bool sameCell(const Json& j, const CellRun& c) {
+  return j.at("case") == c.cell.caseName && j.at("material") == c.cell.material &&
+         j.at("stiffness") == c.cell.stiffness && j.at("integrator") == c.cell.integrator &&
+         j.at("dt").get<double>() == c.cell.dt;
 }
 
 bool writeJson(const std::string& path, const Json& j) {
@@ -605,7 +588,8 @@ bool writeJson(const std::string& path, const Json& j) {
 
 // Every cell of the plan from the *.json files of a folder (each {"cells": [...]}, as --cells
 // writes them): each cell exactly once, the same cell as the plan has at that index.
-int readCellResults(const std::string& folder, StabilityPlan& plan) {
+int readCellResults(const std::string& folder, StabilityPlan& plan, std::vector<std::string>& rows) {
+  rows.assign(plan.cells.size(), "");
   std::vector<bool> seen(plan.cells.size(), false);
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
@@ -614,9 +598,7 @@ int readCellResults(const std::string& folder, StabilityPlan& plan) {
       const Json file = Json::parse(std::ifstream(entry.path()));
       for (const Json& j : file.at("cells")) {
         const std::size_t i = j.at("index").get<std::size_t>();
-        if (i >= plan.cells.size() || j.at("case") != plan.cells[i].cell.caseName ||
-            j.at("material") != plan.cells[i].cell.material || j.at("stiffness") != plan.cells[i].cell.stiffness ||
-            j.at("integrator") != plan.cells[i].cell.integrator || j.at("dt").get<double>() != plan.cells[i].cell.dt) {
+        if (i >= plan.cells.size() || !sameCell(j, plan.cells[i])) {
           std::cerr << "fem_cloth_report: " << entry.path().string() << ": cell " << i
                     << " is not a cell of this selection (another --cases, --materials, ... ?)\n";
           return 2;
@@ -626,7 +608,8 @@ int readCellResults(const std::string& folder, StabilityPlan& plan) {
                     << ") has two results\n";
           return 2;
         }
-        readCellResult(j, plan.cells[i].result);
+        plan.cells[i].result.verdict = j.at("verdict").get<std::string>();
+        rows[i] = j.at("row").get<std::string>();
         seen[i] = true;
       }
     } catch (const Json::exception& e) {
@@ -648,33 +631,23 @@ int readCellResults(const std::string& folder, StabilityPlan& plan) {
   return 0;
 }
 
-void writeStability(const Options& opt, const StabilityPlan& plan, std::ostream& summary, bool& nonFinite) {
-  const std::vector<CellRun>& cells = plan.cells;
+// stability.csv from the rows, and the summary's verdict counts.
+void writeStability(const Options& opt, const StabilityPlan& plan, const std::vector<std::string>& rows,
+                    std::ostream& summary, bool& nonFinite) {
   std::ofstream csv(opt.out + "/stability.csv");
-  csv << "case,material,stiffness,youngs_modulus,poisson_ratio,integrator,dt,verdict,steps,"
-         "total_steps,t_reached,rollbacks,max_substeps,substeps,newton_iterations,energy_growth,"
-         "min_j,min_j_end,max_stretch,wall_s,error\n";
+  csv << stabilityHeader() << '\n';
+  for (const std::string& row : rows) csv << row << '\n';
   std::map<std::string, int> counts;
   std::map<std::string, std::map<std::string, int>> perIntegrator;
-  for (const CellRun& c : cells) {
-    const RunResult& r = c.result.run;
+  for (const CellRun& c : plan.cells) {
     const std::string& verdict = c.result.verdict;
     if (verdict == "non_finite") nonFinite = true;
     ++counts[verdict];
     ++perIntegrator[c.cell.integrator][verdict];
-    const std::uint64_t totalSteps = static_cast<std::uint64_t>(std::llround(c.duration / c.cell.dt));
-    csv << c.cell.caseName << ',' << c.cell.material << ',' << c.level.name << ','
-        << num(c.level.youngsModulus) << ',' << c.level.poissonRatio << ',' << c.cell.integrator
-        << ',' << num(c.cell.dt, 17) << ',' << verdict << ',' << r.steps << ',' << totalSteps
-        << ',' << num(r.simulated) << ',' << r.rollbacks << ',' << r.maxSubsteps << ','
-        << r.substeps << ',' << r.newtonIterations << ',' << num(r.energyGrowth) << ','
-        << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ','
-        << (std::isfinite(r.minJEnd) ? num(r.minJEnd) : "") << ',' << num(r.maxStretch) << ','
-        << num(r.wall) << ',' << csvText(r.error) << '\n';
   }
 
   const std::vector<std::string>& verdicts = verdictNames();
-  summary << "== Stability matrix: " << cells.size() << " cells (" << plan.cases.size() << " cases x "
+  summary << "== Stability matrix: " << plan.cells.size() << " cells (" << plan.cases.size() << " cases x "
           << plan.materials.size() << " materials x " << plan.levels.size() << " stiffnesses x "
           << plan.integrators.size() << " integrators x " << plan.dts.size() << " steps)\n";
   summary << std::left << std::setw(20) << "";
@@ -714,16 +687,21 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
     Json results = Json::array();
     for (std::size_t i = first; i < last; ++i) {
       if (plan.cells[i].result.verdict == "non_finite") nonFinite = true;
-      results.push_back(cellResultJson(plan.cells[i], i));
+      Json j = cellIdentity(plan.cells[i], i);
+      j["verdict"] = plan.cells[i].result.verdict;
+      j["row"] = stabilityRow(plan.cells[i]);
+      results.push_back(std::move(j));
     }
     return writeJson(opt.cellResults, Json{{"cells", results}}) ? 0 : 2;
   }
+  std::vector<std::string> rows;
   if (!opt.fromCellResults.empty()) {
-    if (int status = readCellResults(opt.fromCellResults, plan); status != 0) return status;
+    if (int status = readCellResults(opt.fromCellResults, plan, rows); status != 0) return status;
   } else {
     runCells(opt, plan.cells, 0, plan.cells.size());
+    for (const CellRun& c : plan.cells) rows.push_back(stabilityRow(c));
   }
-  writeStability(opt, plan, summary, nonFinite);
+  writeStability(opt, plan, rows, summary, nonFinite);
   return 0;
 }
 
