@@ -23,7 +23,7 @@ import uuid
 
 import yaml
 
-from fem_cloth.batch.batch import RESULT_COLUMNS, find_program
+from fem_cloth.batch.batch import RESULT_COLUMNS, find_program, program_files
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(os.path.dirname(HERE))
@@ -263,6 +263,23 @@ class TestResume(BatchTestCase):
         _, last = read_index(index)
         self.assertEqual([(r["episode"], r["status"], r["state_hash"]) for r in last],
                          [(r["episode"], r["status"], r["state_hash"]) for r in first])
+
+
+    def test_a_changed_program_runs_everything_again(self):
+        # The physics is in libfem_cloth_core.so: the fingerprint covers the libraries too.
+        self.assertIn("libfem_cloth_core.so", " ".join(program_files(SIM)))
+        out = os.path.join(self.folder, "changed")
+        program = os.path.join(self.folder, "fem_cloth_sim_copy")
+        shutil.copy2(SIM, program)
+        spec = self.write_spec("changed.yaml", self.SPEC)
+        code, stdout, stderr = on_cluster(spec, "--out", out, "--sim", program)
+        self.assertEqual(code, 0, stdout + stderr)
+        with open(program, "ab") as f:
+            f.write(b"\0")  # other bytes, the same program (an ELF file ignores what follows it)
+        code, stdout, stderr = on_cluster(spec, "--out", out, "--sim", program)
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("fem_cloth_sim (or its libraries) changed", stdout)
+        self.assertIn("3 written and checked", stdout)
 
 
 class TestTimeout(BatchTestCase):

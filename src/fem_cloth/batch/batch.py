@@ -14,6 +14,7 @@ import hashlib
 import json
 import os
 import random
+import re
 import shutil
 import subprocess
 import time
@@ -74,6 +75,21 @@ def sha256_file(path):
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
+
+
+def program_files(path):
+    """A program and the fem_cloth libraries it loads (ldd): the physics lives in
+    libfem_cloth_core.so, so a change there leaves the executable's own bytes alone."""
+    try:
+        listing = subprocess.run(["ldd", path], capture_output=True, text=True, check=False).stdout
+    except OSError:
+        listing = ""
+    return [path] + sorted(set(re.findall(r"libfem_cloth\S*\.so\S* => (/\S+)", listing)))
+
+
+def program_sha256(path):
+    """What resuming and verify compare: a changed program or library may change every result."""
+    return hashlib.sha256("".join(sha256_file(f) for f in program_files(path)).encode()).hexdigest()
 
 
 def _number(value):
@@ -173,7 +189,7 @@ class Batch:
         self.columns = ["episode", "draw", "seed"] + spec.varied_keys + RESULT_COLUMNS
         self.manifest = {"spec": spec.path, "scene": os.path.abspath(spec.scene),
                          "scene_sha256": sha256_file(spec.scene), "sim": sim,
-                         "sim_sha256": sha256_file(sim), "set": spec.fixed_overrides(),
+                         "sim_sha256": program_sha256(sim), "set": spec.fixed_overrides(),
                          "output": spec.output, "every": spec.every, "columns": self.columns}
 
     def files(self, index):
@@ -193,7 +209,7 @@ class Batch:
         changed = [k for k in ("scene_sha256", "sim_sha256", "set", "output", "every", "columns")
                    if earlier.get(k) != self.manifest[k]]
         if changed:
-            what = {"scene_sha256": "the base scene", "sim_sha256": "fem_cloth_sim", "set": "set",
+            what = {"scene_sha256": "the base scene", "sim_sha256": "fem_cloth_sim (or its libraries)", "set": "set",
                     "output": "output", "every": "every", "columns": "the varied keys"}
             self.say(f"resume: {', '.join(what[k] for k in changed)} changed since {self.index_path} "
                      f"was written: every episode runs again")
@@ -328,8 +344,8 @@ def verify(index_path, runner, sample=None, seed=0, threads=(1, 2), sim=None, re
     except (OSError, ValueError) as error:
         raise BatchError(f"cannot read the batch in {out}: {error}") from None
     program = find_program("fem_cloth_sim", sim or manifest.get("sim"))
-    if sha256_file(program) != manifest.get("sim_sha256"):
-        say(f"verify: note: {program} is not the fem_cloth_sim that ran the batch")
+    if program_sha256(program) != manifest.get("sim_sha256"):
+        say(f"verify: note: {program} (or a library it loads) is not the fem_cloth_sim that ran the batch")
     done = [rows[i] for i in sorted(rows) if rows[i]["status"] == "ok"]
     if not done:
         raise BatchError(f"{index_path}: no episode ended ok: nothing to verify")
