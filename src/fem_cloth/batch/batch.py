@@ -27,7 +27,7 @@ MANIFEST = "batch.json"
 STATUSES = ("ok", "bad_input", "failed", "error")
 # Index columns after the parameters: how the episode ended, then what fem_cloth_sim's summary
 # says about its final state (SI units: s, J; stretch l/L - 1).
-RESULT_COLUMNS = ["status", "exit_code", "attempts", "error", "wall_s", "worker", "steps",
+RESULT_COLUMNS = ["status", "exit_code", "attempts", "error", "wall_s", "cpu_s", "worker", "steps",
                   "simulated_s", "sim_wall_s", "kinetic_j", "strain_j", "bending_j", "gravity_j",
                   "total_j", "external_work_j", "pin_work_j", "dissipated_j", "balance_error_j",
                   "stretch_mean", "stretch_max", "stretch_max_run", "min_area_ratio", "state_hash",
@@ -96,6 +96,10 @@ def _number(value):
     if value is None:
         return ""
     return repr(value) if isinstance(value, float) else str(value)
+
+
+def _rounded(seconds):
+    return _number(round(seconds, 4) if seconds is not None else None)
 
 
 def _field(summary, path):
@@ -283,7 +287,7 @@ class Batch:
                "exit_code": _number(result["exit_code"]), "attempts": result["attempts"],
                "error": " | ".join(dict.fromkeys(result["earlier_errors"] + [result["error"]]))
                if result["status"] != "ok" else "",
-               "wall_s": _number(round(result["wall_s"], 4) if result["wall_s"] is not None else None),
+               "wall_s": _rounded(result["wall_s"]), "cpu_s": _rounded(result["cpu_s"]),
                "worker": result["worker"],
                "scene": os.path.relpath(files.scene, self.out),
                "output": os.path.relpath(files.outputs[0] if self.spec.output == "bag" else files.folder, self.out)

@@ -7,6 +7,7 @@ needs Python, Dask and the program, not fem_cloth's Python package.
 import ctypes
 import json
 import os
+import resource
 import shutil
 import signal
 import socket
@@ -55,15 +56,18 @@ def _error_line(stderr, code):
 
 def run_command(task):
     """Runs the task; returns a dict: key, status (ok, bad_input, failed, error), exit_code,
-    error, wall_s, worker, summary (the JSON the program wrote, or None)."""
+    error, wall_s, cpu_s, worker, summary (the JSON the program wrote, or None)."""
     argv, summary, log = task["argv"], task["summary"], task["log"]
     env = dict(os.environ, OMP_NUM_THREADS=str(task["threads"]), OMP_WAIT_POLICY="passive")
     worker = _worker_name()
     result = {"key": task["key"], "status": "error", "exit_code": None, "error": "", "wall_s": None,
-              "worker": worker, "summary": None}
+              "cpu_s": None, "worker": worker, "summary": None}
     if summary and os.path.exists(summary):
         os.remove(summary)  # a summary from an earlier run must not pass for this one's
     start = time.monotonic()
+    # The children's CPU time of this worker process: this run's, as long as the worker runs one
+    # task at a time (one thread, as the local cluster's workers and docs/batch.md's do).
+    cpu_before = resource.getrusage(resource.RUSAGE_CHILDREN)
     try:
         done = subprocess.run(argv, stdin=subprocess.DEVNULL, capture_output=True, text=True, env=env,
                               timeout=task["timeout"], preexec_fn=_die_with_parent, check=False)
@@ -78,6 +82,8 @@ def run_command(task):
         code, stdout, stderr = None, "", ""
         result["error"] = f"cannot run {argv[0]} on {worker}: {error.strerror}"
     result["wall_s"] = wall = time.monotonic() - start
+    cpu = resource.getrusage(resource.RUSAGE_CHILDREN)
+    result["cpu_s"] = cpu.ru_utime - cpu_before.ru_utime + cpu.ru_stime - cpu_before.ru_stime
     result["exit_code"] = code
     done_ok = code in task["ok_exit_codes"]
     result["status"] = "ok" if done_ok else EXIT_STATUS.get(code, "error")

@@ -25,7 +25,7 @@ def _lost(task, error):
     load the task): as_completed gives (type, exception, traceback)."""
     if isinstance(error, tuple) and len(error) == 3:
         error = error[1]
-    return {"key": task["key"], "status": "error", "exit_code": None, "wall_s": None, "worker": "",
+    return {"key": task["key"], "status": "error", "exit_code": None, "wall_s": None, "cpu_s": None, "worker": "",
             "summary": None, "error": f"the task failed on its worker: {type(error).__name__}: {error}"}
 
 
