@@ -10,24 +10,31 @@ namespace {
 
 using Point2 = Eigen::Vector2d;
 
-// (b - a) x (q - a): positive when q is to the left of a -> b in (u, v) coordinates. Evaluated
-// from the lexicographically smaller end point, so that the two triangles sharing an edge get
-// exactly opposite values for every pixel: no pixel on a shared edge is lost or drawn twice to
-// rounding.
-double edgeValue(const Point2& a, const Point2& b, const Point2& q) {
-  const bool swapped = b.x() < a.x() || (b.x() == a.x() && b.y() < a.y());
-  const Point2& s = swapped ? b : a;
-  const Point2& t = swapped ? a : b;
-  const double e = (t.x() - s.x()) * (q.y() - s.y()) - (t.y() - s.y()) * (q.x() - s.x());
-  return swapped ? -e : e;
-}
+// The edge function of the directed edge from -> to, e(q) = (to - from) x (q - from): positive
+// when q is to the left of it in (u, v) coordinates, as e(q) = a u + b v + c. The coefficients
+// come from the lexicographically smaller end point, so the two triangles sharing an edge get
+// exactly opposite ones and exactly opposite values at every pixel: no pixel on a shared edge is
+// lost or drawn twice to rounding.
+struct Edge {
+  double a = 0.0, b = 0.0, c = 0.0;
+  bool owns = false;  // whether a pixel centre exactly on the edge belongs to this triangle
 
-// Whether a pixel centre exactly on edge a -> b of a positively oriented triangle belongs to it.
-// The neighbour across the edge traverses it the other way, so exactly one of the two owns it.
-bool ownsEdge(const Point2& a, const Point2& b) {
-  const double dv = b.y() - a.y();
-  return dv < 0.0 || (dv == 0.0 && b.x() - a.x() > 0.0);
-}
+  Edge(const Point2& from, const Point2& to) {
+    const bool swapped = to.x() < from.x() || (to.x() == from.x() && to.y() < from.y());
+    const Point2& s = swapped ? to : from;
+    const Point2& t = swapped ? from : to;
+    const double sign = swapped ? -1.0 : 1.0;
+    a = -sign * (t.y() - s.y());
+    b = sign * (t.x() - s.x());
+    c = sign * ((t.y() - s.y()) * s.x() - (t.x() - s.x()) * s.y());
+    // The neighbour across the edge traverses it the other way, so exactly one of the two
+    // owns it (for a positively oriented triangle).
+    const double dv = to.y() - from.y();
+    owns = dv < 0.0 || (dv == 0.0 && to.x() - from.x() > 0.0);
+  }
+  double at(double u, double v) const { return a * u + b * v + c; }
+  bool inside(double e) const { return e > 0.0 || (e == 0.0 && owns); }
+};
 
 std::uint8_t toByte(float c) {
   return static_cast<std::uint8_t>(std::lround(255.0f * std::clamp(c, 0.0f, 1.0f)));
@@ -101,36 +108,45 @@ void Rasterizer::drawClipped(const std::array<Eigen::Vector3d, 3>& p,
   }
   // Positive orientation (both sides are drawn): swap two vertices of a clockwise triangle.
   std::array<int, 3> o = {0, 1, 2};
-  double area = edgeValue(s[0], s[1], s[2]);
-  if (area < 0.0) {
-    std::swap(o[1], o[2]);
-    area = -area;
-  }
-  if (!(area > 0.0)) return;  // seen edge-on: covers no pixel centre
+  if (Edge(s[0], s[1]).at(s[2].x(), s[2].y()) < 0.0) std::swap(o[1], o[2]);
   const Point2 &a = s[o[0]], &b = s[o[1]], &d = s[o[2]];
+  // Edge k is opposite vertex k: its value at a pixel over the area is that vertex's weight.
+  const std::array<Edge, 3> edges = {Edge(b, d), Edge(d, a), Edge(a, b)};
+  const double area = edges[2].at(d.x(), d.y());
+  if (!(area > 0.0)) return;  // seen edge-on: covers no pixel centre
+  // Barycentric weight over z, per unit of edge value.
+  const std::array<double, 3> wo = {w[o[0]] / area, w[o[1]] / area, w[o[2]] / area};
+  const std::array<Colour, 3> co = {c[o[0]], c[o[1]], c[o[2]]};
   const int i0 = std::max(0, static_cast<int>(std::ceil(std::min({a.x(), b.x(), d.x()}))));
   const int i1 = std::min(camera_.width - 1, static_cast<int>(std::floor(std::max({a.x(), b.x(), d.x()}))));
   const int j0 = std::max(0, static_cast<int>(std::ceil(std::min({a.y(), b.y(), d.y()}))));
   const int j1 = std::min(camera_.height - 1, static_cast<int>(std::floor(std::max({a.y(), b.y(), d.y()}))));
-  const bool own0 = ownsEdge(b, d), own1 = ownsEdge(d, a), own2 = ownsEdge(a, b);
   for (int j = j0; j <= j1; ++j) {
-    for (int i = i0; i <= i1; ++i) {
-      const Point2 q(i, j);
-      // Barycentric weights of a, b, d: each is the edge value opposite that vertex.
-      const double e0 = edgeValue(b, d, q), e1 = edgeValue(d, a, q), e2 = edgeValue(a, b, q);
-      if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) continue;
-      if ((e0 == 0.0 && !own0) || (e1 == 0.0 && !own1) || (e2 == 0.0 && !own2)) continue;
-      const double l0 = e0 / area, l1 = e1 / area, l2 = e2 / area;
-      const double inverse = l0 * w[o[0]] + l1 * w[o[1]] + l2 * w[o[2]];
-      const double z = 1.0 / inverse;
+    // The row's span from the three edges (a pixel of margin for rounding: the exact test
+    // below decides).
+    double lo = i0, hi = i1;
+    for (const Edge& e : edges) {
+      const double r = e.b * j + e.c;
+      if (e.a > 0.0) {
+        lo = std::max(lo, std::ceil(-r / e.a) - 1.0);
+      } else if (e.a < 0.0) {
+        hi = std::min(hi, std::floor(-r / e.a) + 1.0);
+      } else if (r < 0.0) {
+        hi = lo - 1.0;
+      }
+    }
+    for (int i = static_cast<int>(lo); i <= static_cast<int>(hi); ++i) {
+      const double e0 = edges[0].at(i, j), e1 = edges[1].at(i, j), e2 = edges[2].at(i, j);
+      if (!edges[0].inside(e0) || !edges[1].inside(e1) || !edges[2].inside(e2)) continue;
+      const double l0 = e0 * wo[0], l1 = e1 * wo[1], l2 = e2 * wo[2];
+      const double z = 1.0 / (l0 + l1 + l2);
       if (z > far_) continue;
       const std::size_t at = index(i, j);
       const float zf = static_cast<float>(z);
       if (zf >= depth_[at]) continue;  // false while the pixel is empty (NaN)
       depth_[at] = zf;
-      const Colour colour =
-          (static_cast<float>(l0 * w[o[0]] * z) * c[o[0]] + static_cast<float>(l1 * w[o[1]] * z) * c[o[1]] +
-           static_cast<float>(l2 * w[o[2]] * z) * c[o[2]]);
+      const Colour colour = static_cast<float>(l0 * z) * co[0] + static_cast<float>(l1 * z) * co[1] +
+                            static_cast<float>(l2 * z) * co[2];
       rgb_[3 * at] = toByte(colour.x());
       rgb_[3 * at + 1] = toByte(colour.y());
       rgb_[3 * at + 2] = toByte(colour.z());
