@@ -178,6 +178,7 @@ bool ClothNode::start(std::string* error) {
   perception.frame = frame_;
   perception.originFrame = ros::this_node::getName().substr(1);
   perception.alwaysPublish = alwaysPublish_;
+  perception.clothFrames = replayBag_.empty();
   if (!readPerceptionParameters(private_, perception, error)) return false;
   Expected<std::unique_ptr<PerceptionOutputs>> outputs =
       PerceptionOutputs::create(private_, *driver_, tfBuffer_, std::move(perception));

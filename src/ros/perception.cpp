@@ -138,6 +138,7 @@ Expected<CameraSettings> readCameraSettings(const XmlRpc::XmlRpcValue& camera) {
       return Error{"parameter ~camera/frame_id must be a frame name"};
     }
     c.frame = static_cast<std::string>(copy["frame_id"]);
+    if (c.frame[0] == '/') c.frame.erase(0, 1);  // tf2 names frames without it
   }
   if (copy.hasMember("pose")) {
     Eigen::Isometry3d pose;
@@ -279,6 +280,7 @@ PerceptionOutputs::PerceptionOutputs(ros::NodeHandle privateNode, const Simulati
                                      std::vector<ClothFrame> frames)
     : private_(privateNode), driver_(driver), tf_(tf), settings_(std::move(settings)),
       frames_(std::move(frames)) {
+  if (!settings_.frame.empty() && settings_.frame[0] == '/') settings_.frame.erase(0, 1);
   pointsPub_ = private_.advertise<sensor_msgs::PointCloud2>("points", 2);
   markerPub_ = private_.advertise<visualization_msgs::Marker>("marker", 2);
   if (settings_.camera) {
@@ -376,7 +378,7 @@ void PerceptionOutputs::publish(bool stateDue, bool markerDue) {
 }
 
 void PerceptionOutputs::publishClothFrames() {
-  if (frames_.empty()) return;
+  if (frames_.empty() || !settings_.clothFrames) return;
   const std_msgs::Header h = header();
   if (h.stamp == lastFrameStamp_) return;  // the same state again (a resume): tf would warn
   lastFrameStamp_ = h.stamp;

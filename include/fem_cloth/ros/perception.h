@@ -49,6 +49,9 @@ struct PerceptionSettings {
   /// The child of the identity transform that stands for the simulation frame in tf.
   std::string originFrame = "fem_cloth_node";
   bool alwaysPublish = false;
+  /// Broadcast the scene's cloth frames: not while replaying a recording, whose /tf plays them
+  /// back with the same stamps (tf would see each transform twice).
+  bool clothFrames = true;
   PointFields pointFields;
   ClothLook look;
   ViewStyle style;
@@ -59,7 +62,7 @@ struct PerceptionSettings {
 /// The private parameters read by readPerceptionParameters.
 const std::vector<std::string>& perceptionParameterNames();
 
-/// Reads them into `settings` (frame, originFrame and alwaysPublish are the caller's); on a bad
+/// Reads them into `settings` (frame, originFrame, alwaysPublish, clothFrames are the caller's); on a bad
 /// value returns false with `error` naming the parameter.
 bool readPerceptionParameters(const ros::NodeHandle& privateNode, PerceptionSettings& settings,
                               std::string* error);
