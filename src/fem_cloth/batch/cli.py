@@ -58,8 +58,12 @@ def _cluster_options(parser, sim=True):
 
 
 def _run_parser():
-    parser = argparse.ArgumentParser(prog=PROGRAM, description="Runs the episodes of a batch spec "
-                                     "(docs/batch.md) on Dask distributed and writes an index of them.")
+    parser = argparse.ArgumentParser(
+        prog=PROGRAM, description="Runs the episodes of a batch spec (docs/batch.md) on Dask "
+        "distributed and writes an index of them.",
+        epilog=f"Also: {PROGRAM} verify INDEX (re-runs episodes and compares their state hashes) and "
+        f"{PROGRAM} report -- REPORT_OPTIONS (the accuracy report's stability cells as tasks); "
+        f"see {PROGRAM} verify --help, {PROGRAM} report --help.")
     parser.add_argument("spec", help="the batch spec (YAML)")
     parser.add_argument("--out", metavar="DIR", help="the batch folder (default: "
                         "fem_cloth_output/batch/<spec name>); an earlier run there is resumed")
@@ -86,7 +90,8 @@ def _report_parser():
     parser = argparse.ArgumentParser(prog=f"{PROGRAM} report", description="The accuracy report "
                                      "(docs/accuracy.md): fem_cloth_report with its stability cells "
                                      "run as tasks on Dask (scripts/report runs this).")
-    parser.add_argument("--report", metavar="PATH", help="the fem_cloth_report to run (default: as --sim)")
+    parser.add_argument("--report", metavar="PATH", help="the fem_cloth_report to run (default: this source "
+                        "tree's build, else the sourced workspace, else PATH)")
     parser.add_argument("--tasks-per-worker", type=int, default=4, metavar="K",
                         help="cut the cells into about K tasks per worker (default 4)")
     _cluster_options(parser, sim=False)
