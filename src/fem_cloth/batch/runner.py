@@ -46,6 +46,7 @@ class Progress:
         self.start = self.last = time.monotonic()
         self.done = self.failed = 0
         self.dirty = False
+        self.shown = None  # (done, failed) of the last line written
 
     def update(self, done, failed, force=False):
         self.done, self.failed = done, failed
@@ -64,9 +65,11 @@ class Progress:
         self.stream.write(("\r" + line + "   ") if self.tty else line + "\n")
         self.stream.flush()
         self.dirty = self.tty
+        self.shown = (done, failed)
 
     def finish(self):
-        self.update(self.done, self.failed, force=True)
+        if self.shown != (self.done, self.failed):
+            self.update(self.done, self.failed, force=True)
         if self.dirty:
             self.stream.write("\n")
             self.dirty = False
