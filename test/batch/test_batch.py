@@ -215,6 +215,16 @@ class TestRefusals(BatchTestCase):
                      "material.poisson_ratio must be in [0, 0.5)")
 
 
+    def test_a_dry_run_writes_and_checks_the_scenes_only(self):
+        out = os.path.join(self.folder, "dry")
+        spec = self.write_spec("dry.yaml", "episodes: 3\nrandom: {damping.mass: {uniform: [0.0, 0.3]}}\n")
+        code, stdout, stderr = batch(spec, "--out", out, "--dry-run")
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("3 written and checked", stdout)
+        self.assertEqual(sorted(os.listdir(os.path.join(out, "episodes"))), ["000000", "000001", "000002"])
+        self.assertEqual(os.listdir(os.path.join(out, "episodes", "000001")), ["scene.yaml"])
+        self.assertFalse(os.path.exists(os.path.join(out, "index.csv")))
+
     def test_one_batch_at_a_time_in_a_folder(self):
         import fcntl
         out = os.path.join(self.folder, "busy")
@@ -321,6 +331,9 @@ output: none
         self.assertEqual([(r["episode"], r["threads"], r["match"]) for r in checked],
                          [("0", "1", "1"), ("0", "2", "1"), ("1", "1", "1"), ("1", "2", "1")])
         self.assertFalse(os.path.exists(os.path.join(out, "verify")))  # re-run outputs removed
+        code, stdout, stderr = on_cluster("verify", index, "--threads", "2", "--sample", "1")
+        self.assertEqual(code, 0, stdout + stderr)
+        self.assertIn("1 episodes x threads 2: 1 runs", stdout)
 
         columns, rows = read_index(index)
         rows[1]["state_hash"] = "0123456789abcdef"
