@@ -438,6 +438,7 @@ void ClothNode::stepOnce() {
   for (const ForceCommand& c : driver_->takeAppliedForces()) appliedForcePub_.publish(c);
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
+    diagnosticsSoon_ = true;
     warn(WarningThrottle::kindOf(w), w);
   }
   if (!report.ok) {
