@@ -351,16 +351,16 @@ void ClothNode::reject(CommandTopic topic, const std::string& why) {
   diagnosticsSoon_ = true;
 }
 
-void ClothNode::warn(const std::string& kind, const std::string& message) {
+void ClothNode::warn(const std::string& kind, const std::string& message, const std::string& label) {
   const double now = ros::WallTime::now().toSec();
-  for (const std::string& line : warnings_.add(kind, message, now)) {
+  for (const std::string& line : warnings_.add(kind, message, now, label)) {
     ROS_WARN_STREAM("fem_cloth_node: " << line);
   }
 }
 
-void ClothNode::error(const std::string& kind, const std::string& message) {
+void ClothNode::error(const std::string& kind, const std::string& message, const std::string& label) {
   const double now = ros::WallTime::now().toSec();
-  for (const std::string& line : errors_.add(kind, message, now)) {
+  for (const std::string& line : errors_.add(kind, message, now, label)) {
     ROS_ERROR_STREAM("fem_cloth_node: " << line);
   }
 }
@@ -439,13 +439,13 @@ void ClothNode::stepOnce() {
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
     diagnosticsSoon_ = true;
-    warn(WarningThrottle::kindOf(w), w);
+    warn(WarningThrottle::kindOf(w), w, "similar warnings");
   }
   if (!report.ok) {
     ++failedSteps_;
     lastProblem_ = report.error;
     diagnosticsSoon_ = true;
-    error(WarningThrottle::kindOf(report.error), report.error);
+    error(WarningThrottle::kindOf(report.error), report.error, "failed steps");
   }
   // Real-time factor over windows of about a second of wall time.
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
@@ -574,7 +574,10 @@ void ClothNode::turn() {
   flushLogs();
   const RunControl::Boundary b = control_->boundary();
   if (b.advanceEnded) finishAdvance();
-  if (b.reset) doReset();
+  if (b.reset) {
+    takeCommands();  // those that came in since the first look are older than the reset too
+    doReset();
+  }
   if (b.resumed) restartRealTime();
   if (!b.running && !b.stepWanted) {
     publishDiagnostics(false);

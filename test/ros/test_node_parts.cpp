@@ -268,7 +268,14 @@ TEST(WarningThrottle, KindsAreThrottledApartAndALoneMessageHasNoSummary) {
   EXPECT_EQ(lines[0], "1 more a in the 1 s that followed (latest: second a)");
   // After its window a kind is logged at once again.
   EXPECT_EQ(throttle.add("a", "third a", 1.6), std::vector<std::string>{"third a"});
-  EXPECT_EQ(WarningThrottle::kindOf("vertex 12 at t = 0.35 s"), "vertex ## at t = #.## s");
+  EXPECT_EQ(WarningThrottle::kindOf("vertex 12 at t = 0.35 s."), "vertex # at t = # s.");
+  EXPECT_EQ(WarningThrottle::kindOf("at 1.79615e+09 s, 0.0043182 s older"),
+            WarningThrottle::kindOf("at 1.79615e+09 s, 0.104318 s older"));
+  // A label for the summary.
+  WarningThrottle labelled(1.0);
+  labelled.add("k#", "w 1", 0.0, "similar warnings");
+  labelled.add("k#", "w 2", 0.5, "similar warnings");
+  EXPECT_EQ(labelled.flush(1.0), std::vector<std::string>{"1 more similar warnings in the 1 s that followed (latest: w 2)"});
 }
 
 // --- Run control ---------------------------------------------------------------------------------

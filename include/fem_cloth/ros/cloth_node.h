@@ -104,9 +104,9 @@ class ClothNode {
   /// At least once a second; within 0.1 s after a problem (at most 10 per second).
   void publishDiagnostics(bool force);
   CommandCounts commandCounts(CommandTopic topic) const;
-  /// Log lines through the throttles (warnings; errors).
-  void warn(const std::string& kind, const std::string& message);
-  void error(const std::string& kind, const std::string& message);
+  /// Log lines through the throttles (warnings; errors); `label` names the kind in summaries.
+  void warn(const std::string& kind, const std::string& message, const std::string& label = "");
+  void error(const std::string& kind, const std::string& message, const std::string& label = "");
   void flushLogs();
   bool wanted(const ros::Publisher& pub) const {
     return alwaysPublish_ || pub.getNumSubscribers() > 0;
