@@ -227,7 +227,7 @@ bool ClothNode::start(std::string* error) {
     return newestTransform(tfBuffer_, frame_, frame);
   });
 
-  tfListener_ = std::make_unique<tf2_ros::TransformListener>(tfBuffer_, node_);
+  tfIntake_ = std::make_unique<TfIntake>(node_, tfBuffer_);
   // Obstacles (only when the scene has some: a scene pays for what it declares).
   const std::vector<std::string> obstacles = driver_->obstacleNames();
   if (!obstacles.empty()) {
@@ -342,6 +342,15 @@ void ClothNode::takeCommands() {
                       " were already waiting to be checked (max_pending_commands)");
     told = refused;
   }
+}
+
+void ClothNode::tellTfRefusals() {
+  const TfIntake::Refusals refused = tfIntake_->takeRefusals();
+  if (refused.count == 0) return;
+  lastProblem_ = refused.latest;
+  diagnosticsSoon_ = true;
+  warn("tf refused", std::to_string(refused.count) + " transform(s) refused, the latest: " + refused.latest,
+       "times transforms were refused");
 }
 
 void ClothNode::reject(CommandTopic topic, const std::string& why) {
@@ -571,6 +580,7 @@ void ClothNode::begin() {
 void ClothNode::turn() {
   // Commands that arrived before a ~reset are dropped by it: take them first.
   takeCommands();
+  tellTfRefusals();
   flushLogs();
   const RunControl::Boundary b = control_->boundary();
   if (b.advanceEnded) finishAdvance();

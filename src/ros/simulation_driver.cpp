@@ -218,7 +218,11 @@ bool SimulationDriver::knownOrNeverWillBe(const std::string& frame, const ros::T
   if (tf_ == nullptr) return false;
   const std::string source = tfFrameName(frame), target = tfFrameName(settings_.frame);
   if (!tf_->_frameExists(source) || !tf_->_frameExists(target)) return false;
-  if (tf_->canTransform(target, source, at)) return true;
+  try {
+    if (tf_->canTransform(target, source, at)) return true;
+  } catch (const std::exception&) {  // rostime's range errors: transform() says what
+    return true;
+  }
   const std::optional<ros::Time> newest = newestTransform(*tf_, target, source);
   return newest && at <= *newest;  // nullopt: not connected (yet)
 }

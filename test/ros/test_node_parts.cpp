@@ -1,6 +1,6 @@
 // The parts the node is wired from, without a ROS master: range-checked ROS times, the command
 // queue and inbox with their caps and counts, the warning throttle, the run control between the
-// services and the run loop, and the policy for waiting for transforms.
+// services and the run loop, the policy for waiting for transforms, and the tf intake.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -10,6 +10,7 @@
 
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/run_control.h"
+#include "fem_cloth/ros/tf_intake.h"
 #include "fem_cloth/ros/time_checks.h"
 #include "fem_cloth/ros/transform_wait.h"
 #include "fem_cloth/ros/warning_throttle.h"
@@ -474,4 +475,31 @@ TEST(TransformWait, NewestTransformReadsTfAndNamesMayStartWithASlash) {
   EXPECT_EQ(newestTransform(tf, "/world", "/gripper"), std::optional<ros::Time>(ros::Time(30.0)));
   EXPECT_EQ(newestTransform(tf, "world", "camera"), std::nullopt);
   EXPECT_EQ(tfFrameName("/world"), "world");
+}
+
+// --- The tf intake -------------------------------------------------------------------------------
+
+TEST(TfIntake, ATransformStampedWhereTf2OverflowsIsRefusedNotThrown) {
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = "world";
+  t.child_frame_id = "bomb";
+  t.transform.rotation.w = 1.0;
+  t.header.stamp = ros::Time(4294967295u, 0u);
+  // What killed the node on tf2_ros's listener thread: tf2 adds its cache time to the stamp.
+  {
+    tf2::BufferCore raw(ros::Duration(10.0));
+    EXPECT_THROW(raw.setTransform(t, "test"), std::runtime_error);
+  }
+  tf2::BufferCore tf(ros::Duration(10.0));
+  const Status s = insertTransform(tf, t, "test", false);
+  ASSERT_FALSE(s.ok());
+  EXPECT_TRUE(contains(s.error(), "the stamp of transform 'world' -> 'bomb' = 4.29497e+09 s")) << s.error();
+  EXPECT_FALSE(tf._frameExists("bomb"));
+  // A good one goes in; tf2's own refusals come back as errors.
+  t.header.stamp = ros::Time(100.0);
+  ASSERT_TRUE(insertTransform(tf, t, "test", false).ok());
+  EXPECT_EQ(newestTransform(tf, "world", "bomb"), std::optional<ros::Time>(ros::Time(100.0)));
+  t.transform.translation.x = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(insertTransform(tf, t, "test", false).ok());
+  EXPECT_FALSE(insertTransform(tf, t, "test", true).ok());
 }

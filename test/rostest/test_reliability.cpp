@@ -193,6 +193,25 @@ TEST(Stamps, AStampNoRosDurationCanReachIsRejectedByNameAndTheNodeRunsOn) {
   EXPECT_TRUE(finite(*later));
 }
 
+TEST(Stamps, ATransformStampedWhereTf2OverflowsIsRefusedByNameAndTheNodeRunsOn) {
+  ros::NodeHandle nh;
+  ros::Publisher tfPub = nh.advertise<tf2_msgs::TFMessage>("/tf", 10);
+  ASSERT_TRUE(waitForConnection(tfPub));
+  geometry_msgs::TransformStamped t;
+  t.header.frame_id = "world";
+  t.child_frame_id = "bomb";
+  t.header.stamp = ros::Time(4294967295u, 0u);  // aborted the node inside tf2 (its listener)
+  t.transform.rotation.w = 1.0;
+  tf2_msgs::TFMessage m;
+  m.transforms.push_back(t);
+  EXPECT_TRUE(diagnosticSays("/tf: the stamp of transform 'world' -> 'bomb'", [&] { tfPub.publish(m); }));
+  Latest<fem_cloth::ClothState> state(topic("state"));
+  auto s = state.waitForNext();
+  ASSERT_TRUE(s);
+  ASSERT_TRUE(state.waitFor([&](const fem_cloth::ClothState& n) { return n.step > s->step + 10; }))
+      << "the node stopped stepping";
+}
+
 TEST(PinJump, AFarTargetIsRefusedNamingTheVertexAndTheDistance) {
   ros::NodeHandle nh;
   ros::Publisher pub = nh.advertise<fem_cloth::PinCommand>(topic("pin"), 10);

@@ -36,7 +36,6 @@
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
 #include <array>
 #include <memory>
@@ -46,6 +45,7 @@
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/simulation_driver.h"
+#include "fem_cloth/ros/tf_intake.h"
 #include "fem_cloth/ros/transform_wait.h"
 #include "fem_cloth/ros/warning_throttle.h"
 
@@ -88,6 +88,8 @@ class ClothNode {
   /// Hands the commands that arrived to the driver (it validates and queues them).
   void takeCommands();
   void reject(CommandTopic topic, const std::string& why);
+  /// Says which transforms the tf intake refused since the last turn.
+  void tellTfRefusals();
   /// ~reset, ~resume and the end of an ~advance, as the run loop carries them out.
   void doReset();
   void restartRealTime();
@@ -117,7 +119,7 @@ class ClothNode {
   // never holds up commands, ~pause or ~resume.
   ros::CallbackQueue blockingQueue_;
   tf2_ros::Buffer tfBuffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tfListener_;
+  std::unique_ptr<TfIntake> tfIntake_;
   std::unique_ptr<SimulationDriver> driver_;
   std::unique_ptr<RunControl> control_;
   std::unique_ptr<CommandInbox> inbox_;
