@@ -337,9 +337,9 @@ void ClothNode::takeCommands() {
     const std::uint64_t refused = inbox_->tally(topic).refused;
     std::uint64_t& told = inboxRefusalsTold_[static_cast<std::size_t>(topic)];
     if (refused == told) continue;
-    reject(topic, std::to_string(refused - told) + " commands refused on arrival: " +
-                      std::to_string(inbox_->capacity()) +
-                      " were already waiting to be checked (max_pending_commands)");
+    const std::string capacity = std::to_string(inbox_->capacity());
+    reject(topic, std::to_string(refused - told) + " commands refused on arrival: " + capacity +
+                      " were already waiting to be checked (max_pending_commands = " + capacity + ")");
     told = refused;
   }
 }
