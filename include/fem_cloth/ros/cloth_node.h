@@ -17,7 +17,6 @@
 //   always_publish    bool    compute energies, markers and reactions even with no subscriber
 //   start_paused      bool    wait for ~resume or ~step (false)
 //   tf_timeout        double  s after which a frame's newest transform counts as stale (1.0)
-//   strain_color_max  double  strain shown fully red in ~marker (0.05)
 //   step_lag          double  s the node stays behind ROS time in real_time mode, so that the
 //                             commands and transforms for a step have arrived when it is taken:
 //                             what makes a live replay reproduce a recording (0)
@@ -27,6 +26,7 @@
 //   max_pending_commands int  commands that may wait to be checked, and checked ones that may
 //                             wait for their stamp; more are refused (10000)
 //   command_queue_size int    roscpp subscriber queue of ~pin and ~force (1000)
+// and the perception parameters (point cloud, camera, tf frames, marker look: perception.h).
 //
 // Threads: roscpp's spinners run the callbacks, which only hand commands to a CommandInbox and
 // requests to a RunControl; the run loop (run()) is the one thread that touches the simulation.
@@ -43,6 +43,7 @@
 
 #include "fem_cloth/Advance.h"
 #include "fem_cloth/ros/command_queue.h"
+#include "fem_cloth/ros/perception.h"
 #include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/simulation_driver.h"
 #include "fem_cloth/ros/tf_intake.h"
@@ -121,6 +122,7 @@ class ClothNode {
   tf2_ros::Buffer tfBuffer_;
   std::unique_ptr<TfIntake> tfIntake_;
   std::unique_ptr<SimulationDriver> driver_;
+  std::unique_ptr<PerceptionOutputs> perception_;  // ~points, ~camera/*, ~marker, tf frames
   std::unique_ptr<RunControl> control_;
   std::unique_ptr<CommandInbox> inbox_;
   std::unique_ptr<TransformWait> tfWait_;
@@ -132,7 +134,7 @@ class ClothNode {
   double realTimeFactor_ = 1.0;
   double publishRate_ = 30.0, markerRate_ = 10.0;
   bool publishVelocities_ = false, alwaysPublish_ = false, startPaused_ = false;
-  double tfTimeout_ = 1.0, strainColorMax_ = 0.05;
+  double tfTimeout_ = 1.0;
   bool hasStartTime_ = false;
   ros::Time startTime_;  // exact: a time origin from a bag must not pass through a double
   double stepLag_ = 0.0;
@@ -156,7 +158,7 @@ class ClothNode {
   bool diagnosticsSoon_ = false;
 
   ros::Subscriber pinSub_, forceSub_;
-  ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, markerPub_, pinForcesPub_,
+  ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, pinForcesPub_,
       pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_,
       obstacleMarkerPub_;
   std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order

@@ -41,10 +41,9 @@ struct DriverSettings {
   std::string frame = "world";  ///< the simulation frame
   ros::Time epoch;              ///< ROS time of simulation time 0
   /// A frame whose newest transform is older than this (s, in ROS time) is stale: commands
-  /// referring to it are rejected, and following pins keep their last target.
+  /// referring to it are rejected, and the pins that follow it stop following and stay put.
   double tfTimeout = 1.0;
   bool publishVelocities = false;
-  double strainColorMax = 0.05;  ///< marker colour scale: strain (s1 - 1) shown fully red
   /// A pin target farther than this (m) from where its vertex is is refused: the pin would move
   /// the vertex there within one step. Checked when a pin command is applied and whenever a
   /// followed frame moves its pins (a frame that jumps loses its followers).
@@ -112,7 +111,6 @@ class SimulationDriver {
   ClothState stateMessage() const;
   ClothEnergy energyMessage();
   StepStats statsMessage(const StepReport& report, double wallTime, double realTimeFactor) const;
-  visualization_msgs::Marker markerMessage();
   PinForces pinForcesMessage() const;
   /// One wrench per grasp frame (the sum over the pins that follow it, expressed in that frame,
   /// torque about its origin) and one in the simulation frame for pins fixed there.
@@ -173,7 +171,6 @@ class SimulationDriver {
   std::vector<std::string> warnings_;
   std::vector<PinCommand> appliedPins_;
   std::vector<ForceCommand> appliedForces_;
-  std::vector<double> strains_;
 };
 
 }  // namespace fem_cloth
