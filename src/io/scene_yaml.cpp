@@ -375,10 +375,11 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
   FEM_CLOTH_TRY(mat.number("thickness", s.thickness));
   FEM_CLOTH_TRY(mat.number("density", s.density));
 
-  MapReader bend(root.child("bending"), "bending", {"model", "stiffness"});
+  MapReader bend(root.child("bending"), "bending", {"model", "stiffness", "poisson_ratio"});
   FEM_CLOTH_TRY(bend.check());
   FEM_CLOTH_TRY(bend.text("model", s.bendingModel));
   FEM_CLOTH_TRY(bend.number("stiffness", s.bendingStiffness));
+  FEM_CLOTH_TRY(bend.number("poisson_ratio", s.bendingPoissonRatio));
 
   MapReader damp(root.child("damping"), "damping", {"mass", "stiffness"});
   FEM_CLOTH_TRY(damp.check());

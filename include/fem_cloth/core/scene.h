@@ -98,7 +98,8 @@ struct Scene {
 
   // bending
   std::string bendingModel = "quadratic";
-  double bendingStiffness = 0.0;  ///< N m; 0: no bending term at all
+  double bendingStiffness = 0.0;     ///< N m; 0: no bending term at all
+  double bendingPoissonRatio = 0.0;  ///< midedge: nu_b (docs/bending.md: why 0 for woven cloth)
 
   Damping damping;
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
@@ -137,6 +138,10 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& k
 inline bool sceneHasContact(const Scene& scene) {
   return !scene.obstacles.empty() || scene.contact.selfCollision;
 }
+
+/// Per vertex: pinned by the scene from the start and never released (midedge bending treats
+/// triangles with three such vertices as clamp plates). Errors as resolveSelection.
+Expected<std::vector<char>> heldVertices(const Scene& scene, Index numVertices);
 
 /// Membrane Lame parameters (N/m) of a scene: volumetric moduli times thickness.
 Expected<Lame> membraneLame(const Scene& scene);
