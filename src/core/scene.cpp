@@ -98,7 +98,7 @@ Status validateScene(const Scene& s) {
     // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge element
     // reads 12 vertices. Said when the scene is loaded rather than at the first step.
     return Error{"bending.model: xpbd needs a bending model with a constraint form, quadratic or "
-                 "dihedral, got 'midedge'"};
+                 "dihedral, got 'midedge' (the default; set bending.model)"};
   }
   FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.massProportional, "damping.mass", "1/s"));
   FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.stiffnessProportional, "damping.stiffness", "s"));
@@ -122,7 +122,7 @@ Status validateScene(const Scene& s) {
     }
     if (s.bendingStiffness > 0.0 && s.bendingModel != "quadratic") {
       return Error{"bending.model: projective_dynamics needs the quadratic bending model, got '" +
-                   s.bendingModel + "'"};
+                   s.bendingModel + "'" + (s.bendingModel == "midedge" ? " (the default; set bending.model: quadratic)" : "")};
     }
     if (s.damping.stiffnessProportional > 0.0) {
       return Error{"damping.stiffness: projective_dynamics has no stiffness damping; set it to 0 "

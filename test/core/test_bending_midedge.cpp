@@ -400,7 +400,7 @@ TEST(MidedgeBending, EnergyGrowsWithoutBoundAsAHingeFoldsFlat) {
 TEST(MidedgeBending, SceneKeysDefaultsAndRefusals) {
   Scene s = gridScene(3, 5, 0.4, "backward_euler");
   s.bendingStiffness = 1e-4;
-  s.bendingModel = "midedge";
+  EXPECT_EQ(s.bendingModel, "midedge");  // the default
   EXPECT_EQ(s.bendingPoissonRatio, 0.0);
   Simulation sim = mustBuild(s);
   ASSERT_EQ(sim.model->numTerms(), 2u);
@@ -414,6 +414,13 @@ TEST(MidedgeBending, SceneKeysDefaultsAndRefusals) {
   EXPECT_NE(xpbd.error().find("bending.model"), std::string::npos) << xpbd.error();
   s.bendingModel = "dihedral";
   EXPECT_TRUE(validateScene(s).ok()) << validateScene(s).error();
+  // Projective dynamics needs the quadratic model and says so when the default is in the way.
+  s.bendingModel = "midedge";
+  s.integrator = "projective_dynamics";
+  s.materialModel = "arap";
+  const Status pd = validateScene(s);
+  ASSERT_FALSE(pd.ok());
+  EXPECT_NE(pd.error().find("bending.model: quadratic"), std::string::npos) << pd.error();
 }
 
 TEST(MidedgeBending, ScenePinsThatNeverReleaseHoldTheirVertices) {

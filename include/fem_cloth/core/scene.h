@@ -97,7 +97,7 @@ struct Scene {
   double density = 2000.0;       ///< kg/m^3; areal density = density x thickness
 
   // bending
-  std::string bendingModel = "quadratic";
+  std::string bendingModel = "midedge";
   double bendingStiffness = 0.0;     ///< N m; 0: no bending term at all
   double bendingPoissonRatio = 0.0;  ///< midedge: nu_b (docs/bending.md: why 0 for woven cloth)
 
