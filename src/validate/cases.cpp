@@ -110,7 +110,11 @@ CaseRow staticRow(const std::string& validation, const std::string& parameter, i
   row.cells = cells;
   row.converged = statics.converged;
   row.residual = statics.residual;
-  if (!statics.converged) row.note = "not converged: " + statics.error;
+  if (!statics.converged) {
+    row.note = "not converged: " + statics.error;
+  } else if (statics.tolerance > StaticSettings{}.tolerance) {
+    row.note = "residual " + numberText(statics.residual) + " <= round-off floor " + numberText(statics.tolerance);
+  }
   return row;
 }
 

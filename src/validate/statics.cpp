@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "fem_cloth/core/integrators/linear_solver.h"
 
@@ -29,6 +30,18 @@ struct Problem {
       if (pinned[static_cast<std::size_t>(i)]) g[i] = 0.0;
     }
     return g;
+  }
+
+  /// The largest diagonal entry of the projected Hessian on a free DOF (N/m): the stiffness that
+  /// turns a position's round-off into a force's.
+  double largestStiffness(const VectorX& x, SparseHessian& H) const {
+    H.setZero();
+    model.evaluate(x, EvalRequest{false, nullptr, &H, HessianMode::Projected});
+    double largest = 0.0;
+    for (Index i = 0; i < H.matrix().rows(); ++i) {
+      if (!pinned[static_cast<std::size_t>(i)]) largest = std::max(largest, std::abs(H.values()[H.diagonalOffset(i)]));
+    }
+    return largest;
   }
 
   /// The projected Hessian with pinned rows and columns replaced by the identity, plus
@@ -82,12 +95,18 @@ StaticResult solveStatics(Simulation& sim, const StaticSettings& settings) {
   if (!(loadScale > 0.0)) loadScale = 1.0;
   Problem problem{model, pinned, VectorX()};
   SparseHessian& H = model.hessianPattern();
+  // Forces cannot be resolved below the round-off of the positions times the stiffness
+  // (eps |x| K per DOF): a stiff membrane under a light load, or an energy that cancels large
+  // terms (the quadratic bending model's sum K x), sets a floor above 1e-8 of the load.
+  const double floor = 10.0 * std::numeric_limits<double>::epsilon() * maxAbs(x) *
+                       problem.largestStiffness(x, H) / loadScale;
+  result.tolerance = std::max(settings.tolerance, floor);
   std::unique_ptr<LinearSolver> solver = makeLinearSolver(LinearSolverSettings{}, n);
   const int steps = std::max(settings.loadSteps, 1);
   for (int step = 1; step <= steps; ++step) {
     problem.load = totalLoad * (static_cast<double>(step) / steps);
     // Intermediate load steps only need to be close enough to start the next one.
-    const double tolerance = step == steps ? settings.tolerance : std::max(settings.tolerance, 1e-6);
+    const double tolerance = step == steps ? result.tolerance : std::max(result.tolerance, 1e-6);
     double lambda = 1e-6;
     double phi = problem.potential(x);
     if (!std::isfinite(phi)) {

@@ -6,7 +6,8 @@
 // accepted step and raised tenfold after a rejected one), so free-floating bodies (rigid modes)
 // and large rotations are solved alike; the load is applied in `loadSteps` equal increments
 // (continuation). Success means the force residual |dPhi/dx| on every free DOF is below
-// `tolerance` times the largest nodal load: a result that is not converged says so.
+// `tolerance` times the largest nodal load (or the round-off floor of the forces, when that is
+// larger): a result that is not converged says so.
 #pragma once
 
 #include <string>
@@ -27,6 +28,9 @@ struct StaticResult {
   bool converged = false;
   int iterations = 0;       ///< Newton iterations over all load steps
   double residual = 0.0;    ///< max |dPhi/dx| over free DOFs / max nodal load, at the end
+  /// The tolerance applied: settings.tolerance, or the round-off floor 10 eps |x| K / load when
+  /// that is larger (K the largest diagonal stiffness).
+  double tolerance = 0.0;
   std::string error;        ///< why it failed, when it did
 };
 
