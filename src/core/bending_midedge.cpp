@@ -100,8 +100,8 @@ ChartHinge placeHinge(const Hinge& hinge, Index index, const ChartTriangle& a, c
   // The gradient of the angle at the unfolded (flat) hinge, restricted to normal displacements,
   // is the linearisation; the same function as the dynamic angle, so the signs agree.
   double theta = 0.0;
-  HingeVector gradient;
-  dihedralAngle(flat, &theta, &gradient);
+  HingeVector gradient = HingeVector::Zero();
+  dihedralAngle(flat, &theta, &gradient);  // rest triangles have area: the angle is defined
   for (int k = 0; k < 4; ++k) {
     c.weights[k] = gradient[3 * k + 2];
     c.curvature += c.weights[k] * monomials(c.points[k] - centre);

@@ -15,6 +15,10 @@
 #include <iostream>
 #include <random>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "bending_test_support.h"
 #include "test_support.h"
 #include "fem_cloth/core/bending_midedge.h"
@@ -435,4 +439,36 @@ TEST(MidedgeBending, ScenePinsThatNeverReleaseHoldTheirVertices) {
   for (Index v = 0; v < 16; ++v) EXPECT_EQ((*held)[v] != 0, v % 4 == 0) << v;
   s.pins[0].select.vertices = {99};
   EXPECT_FALSE(heldVertices(s, 16).ok());
+}
+
+TEST(MidedgeBending, BitIdenticalForAnyThreadCountAboveTheParallelThreshold) {
+#ifndef _OPENMP
+  GTEST_SKIP() << "built without OpenMP";
+#else
+  // 65 x 65: 8192 elements and 12 160 hinges, above kParallelElementThreshold, so the hinge and
+  // element loops run in parallel.
+  const Cloth cloth = withRest(gridMesh(65, 65, 1.0, 1.0));
+  auto term = midedge(cloth, 1e-3, 0.3);
+  SparseHessian H = patternFor(*cloth.mesh, *term);
+  const VectorX x = bentState(cloth.mesh->restPositions, 4);
+  const int before = omp_get_max_threads();
+  std::vector<double> energies;
+  std::vector<VectorX> gradients;
+  std::vector<std::vector<double>> hessians;
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    energies.push_back(energyOf(*term, x));
+    gradients.push_back(gradientOf(*term, x));
+    H.setZero();
+    EvalRequest request;
+    request.energy = false;
+    request.hessian = &H;
+    term->evaluate(x, request);
+    hessians.emplace_back(H.values(), H.values() + H.matrix().nonZeros());
+  }
+  omp_set_num_threads(before);
+  EXPECT_EQ(energies[0], energies[1]);
+  EXPECT_TRUE(gradients[0] == gradients[1]);
+  EXPECT_TRUE(hessians[0] == hessians[1]);
+#endif
 }
