@@ -23,12 +23,14 @@ namespace {
 using fem_cloth::validate::CaseRow;
 
 /// Observed order against the previous row of the same case, parameter and quantity at a coarser
-/// mesh (or a larger time step); NaN when there is none.
+/// mesh (or a larger time step); NaN when there is none (or either solve did not converge).
 std::vector<double> orders(const std::vector<CaseRow>& rows) {
   std::vector<double> out(rows.size(), std::nan(""));
   std::map<std::string, std::size_t> previous;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const CaseRow& r = rows[i];
+    // A solve that did not converge has no error to take an order from.
+    if (!r.converged) continue;
     const std::string key = r.validation + "|" + r.parameter + "|" + r.quantity;
     const auto it = previous.find(key);
     if (it != previous.end()) {
