@@ -160,6 +160,14 @@ Expected<std::vector<CaseRow>> peirce(const CaseOptions& options) {
       setValue(drop, -tip.z() / l, elastica.tipDrop);
       drop.tolerance = (n == 16 && gamma >= 1.0 && gamma <= 20.0) ? 0.03 : 0.0;
       rows.push_back(drop);
+      // The rigidity a lab would read from the drop: at large gamma the drop barely depends on
+      // B (the strip hangs down), so this is the row that sees a wrong stiffness there.
+      CaseRow fromDrop = staticRow("peirce", format("gamma", gamma), n, statics);
+      fromDrop.quantity = "B read back from the tip drop / B";
+      fromDrop.source = "B = w l^3 / gamma(drop), elastica inverted";
+      setValue(fromDrop, w * l * l * l / elasticaGammaForTipDrop(-tip.z() / l) / B, 1.0);
+      fromDrop.tolerance = drop.tolerance;
+      rows.push_back(fromDrop);
       if (gamma == 8.0) {
         // Peirce's test reads the tip chord angle at the overhang l = 2c: 41.5 deg, c = l/2,
         // B = w c^3. The rigidity a lab would read from the simulated strip's angle:

@@ -63,13 +63,28 @@ double peirceBendingLength(double rigidity, double weightPerArea) {
   return std::cbrt(rigidity / weightPerArea);
 }
 
-double elasticaGammaForChordAngle(double chordAngle) {
+namespace {
+
+/// The gamma in [1e-6, 1e4] where the increasing function f of the elastica reaches target
+/// (bisection on log gamma).
+template <class F>
+double invertElastica(F f, double target) {
   double low = 1e-6, high = 1e4;
   for (int i = 0; i < 100 && high / low > 1.0 + 1e-13; ++i) {
     const double mid = std::sqrt(low * high);
-    (heavyElastica(mid, 2000).chordAngle < chordAngle ? low : high) = mid;
+    (f(heavyElastica(mid, 2000)) < target ? low : high) = mid;
   }
   return std::sqrt(low * high);
+}
+
+}  // namespace
+
+double elasticaGammaForChordAngle(double chordAngle) {
+  return invertElastica([](const ElasticaSolution& e) { return e.chordAngle; }, chordAngle);
+}
+
+double elasticaGammaForTipDrop(double tipDrop) {
+  return invertElastica([](const ElasticaSolution& e) { return e.tipDrop; }, tipDrop);
 }
 
 }  // namespace fem_cloth::validate

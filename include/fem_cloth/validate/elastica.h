@@ -36,4 +36,10 @@ double peirceBendingLength(double rigidity, double weightPerArea);
 /// gamma = 8 (c = l / 2).
 double elasticaGammaForChordAngle(double chordAngle);
 
+/// The gamma at which the elastica's tip drops by `tipDrop` (/ l, in (0, 1)): the rigidity read
+/// back from a strip's tip drop instead of its angle (the drop grows with gamma). Where the strip
+/// hangs nearly vertical (gamma 20: a 5 % change of B moves the drop by 1 %) this reading shows a
+/// stiffness error that the drop itself hides.
+double elasticaGammaForTipDrop(double tipDrop);
+
 }  // namespace fem_cloth::validate
