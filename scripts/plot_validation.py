@@ -44,6 +44,11 @@ def err(r):
     return "not converged" if r["status"] == "NOT CONVERGED" else pct(r["error"])
 
 
+def resid(r):
+    """A static row's force residual / largest nodal load (dynamic rows have none)."""
+    return f"{r['residual']:.2g}" if r["residual"] > 0 else ""
+
+
 def series(rows, **match):
     """(cells, |error|) of the rows matching every key, sorted by cells."""
     pts = [(r["cells"], abs(r["error"])) for r in rows
@@ -109,15 +114,15 @@ def peirce_figure(out, rows, path):
 
 
 def summary_table(rows):
-    lines = ["| case | parameter | quantity | value | reference | error | tolerance | status |",
-             "| --- | --- | --- | --- | --- | --- | --- | --- |"]
+    lines = ["| case | parameter | quantity | value | reference | error | tolerance | residual | status |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         if r["cells"] not in (0, 16):
             continue
         tol = "" if r["tolerance"] <= 0 else f"{100 * r['tolerance']:.3g} %"
         dt = f" (dt {r['dt']:g})" if r["dt"] > 0 and r["cells"] == 0 else ""
         lines.append(f"| {r['validation']} | {r['parameter']}{dt} | {r['quantity']} | {r['value']:.6g} | "
-                     f"{r['reference']:.6g} | {err(r)} | {tol} | {r['status']} |")
+                     f"{r['reference']:.6g} | {err(r)} | {tol} | {resid(r)} | {r['status']} |")
     return "\n".join(lines)
 
 

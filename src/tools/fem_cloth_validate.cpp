@@ -93,17 +93,22 @@ void printTable(const std::vector<CaseRow>& rows, const std::vector<double>& ord
   std::cout << std::left << std::setw(14) << "case" << std::setw(24) << "parameter" << std::right
             << std::setw(6) << "cells" << std::setw(8) << "dt" << "  " << std::left << std::setw(38)
             << "quantity" << std::right << std::setw(13) << "value" << std::setw(13) << "reference"
-            << std::setw(10) << "error %" << std::setw(7) << "order" << "  status\n";
+            << std::setw(10) << "error %" << std::setw(7) << "order" << std::setw(10) << "residual"
+            << "  status\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const CaseRow& r = rows[i];
     std::ostringstream ord;
     if (!std::isnan(order[i])) ord << std::fixed << std::setprecision(2) << order[i];
+    // A static row's force residual / largest nodal load: a comparison counts only once the
+    // solve is converged, so every static row shows how far it got.
+    std::ostringstream residual;
+    if (r.residual > 0.0) residual << std::setprecision(2) << r.residual;
     std::cout << std::left << std::setw(14) << r.validation << std::setw(24) << r.parameter << std::right
               << std::setw(6) << (r.cells > 0 ? std::to_string(r.cells) : "-") << std::setw(8)
               << (r.step > 0 ? fem_cloth::numberText(r.step) : "-") << "  " << std::left << std::setw(38)
               << r.quantity << std::right << std::setw(13) << std::setprecision(6) << r.value << std::setw(13)
               << r.reference << std::setw(10) << std::setprecision(3) << 100.0 * r.error << std::setw(7)
-              << ord.str() << "  " << status(r) << (r.note.empty() ? "" : "  (" + r.note + ")") << "\n";
+              << ord.str() << std::setw(10) << (r.residual > 0.0 ? residual.str() : "-") << "  " << status(r) << (r.note.empty() ? "" : "  (" + r.note + ")") << "\n";
   }
 }
 
