@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <array>
 #include <map>
 
 #include "fem_cloth/ClothState.h"
@@ -18,6 +19,7 @@ RunTopics::RunTopics(const std::string& node) {
   std::string ns = node.empty() ? "/fem_cloth_node" : node;
   if (ns[0] != '/') ns = "/" + ns;
   if (ns.back() == '/') ns.pop_back();
+  this->ns = ns;
   scene = ns + "/scene";
   mesh = ns + "/mesh";
   state = ns + "/state";
@@ -30,6 +32,9 @@ RunTopics::RunTopics(const std::string& node) {
   appliedPin = ns + "/applied_pin";
   appliedForce = ns + "/applied_force";
 }
+
+std::string RunTopics::sent(CommandTopic topic) const { return ns + "/" + topicName(topic); }
+std::string RunTopics::applied(CommandTopic topic) const { return ns + "/applied_" + topicName(topic); }
 
 namespace {
 
@@ -48,7 +53,56 @@ Status expectType(const rosbag::ConnectionInfo& c) {
   return Status::success();
 }
 
+// Every topic we read has the type we read it as, checked before reading any of them.
+Status checkTypes(rosbag::View& view, const RunTopics& topics) {
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+    Status s;
+    if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
+    if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
+    if (c->topic == topics.state) s = expectType<ClothState>(*c);
+    if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
+    forEachCommandType([&](auto type) {
+      using C = typename decltype(type)::type;
+      const CommandTopic topic = topicOf<C>();
+      if (c->topic == topics.sent(topic) || c->topic == topics.applied(topic)) s = expectType<C>(*c);
+    });
+    if (!s) return s;
+  }
+  return Status::success();
+}
+
+// A command message, sent or applied, into its topic's list (a sent one with a zero stamp is
+// stamped with the time it was recorded: when the node took it).
+void readCommand(const rosbag::MessageInstance& m, const RunTopics& topics,
+                 std::array<std::vector<Command>, kCommandTopics>* sent,
+                 std::array<std::vector<Command>, kCommandTopics>* applied) {
+  forEachCommandType([&](auto type) {
+    using C = typename decltype(type)::type;
+    const CommandTopic topic = topicOf<C>();
+    const std::size_t k = static_cast<std::size_t>(topic);
+    const bool isSent = m.getTopic() == topics.sent(topic);
+    if (!isSent && m.getTopic() != topics.applied(topic)) return;
+    auto msg = m.instantiate<C>();
+    if (!msg) return;
+    C c = *msg;
+    if (isSent && c.header.stamp.isZero()) c.header.stamp = m.getTime();
+    (isSent ? *sent : *applied)[k].push_back(std::move(c));
+  });
+}
+
 }  // namespace
+
+Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node) {
+  if (run.sceneYaml.empty()) {
+    return Error{"bag '" + run.path + "' holds no scene (" + RunTopics(node).scene +
+                 "): record with launch/record.launch, or give the scene"};
+  }
+  try {
+    return YAML::Load(run.sceneYaml);
+  } catch (const YAML::Exception& e) {
+    return Error{"the scene stored in bag '" + run.path + "' is not valid YAML: " + e.msg};
+  }
+}
 
 Expected<RecordedRun> readRun(const std::string& path, const std::string& node) {
   if (!std::filesystem::exists(path)) return Error{"no bag at '" + path + "'"};
@@ -72,21 +126,10 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     rosbag::View view(bag);
     run.begin = view.getBeginTime();
     run.end = view.getEndTime();
-    // Check the types of every topic we read before reading any of them.
-    for (const rosbag::ConnectionInfo* c : view.getConnections()) {
-      Status s;
-      if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
-      if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
-      if (c->topic == topics.state) s = expectType<ClothState>(*c);
-      if (c->topic == topics.pin || c->topic == topics.appliedPin) s = expectType<PinCommand>(*c);
-      if (c->topic == topics.force || c->topic == topics.appliedForce) s = expectType<ForceCommand>(*c);
-      if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
-      if (!s) return Error{"bag '" + path + "': " + s.error()};
-    }
+    if (Status s = checkTypes(view, topics); !s) return Error{"bag '" + path + "': " + s.error()};
     const double span = std::max((run.end - run.begin).toSec(), 0.0);
     run.tf = std::make_shared<tf2::BufferCore>(ros::Duration(span + 60.0));
-    std::vector<PinCommand> sentPins, appliedPins;
-    std::vector<ForceCommand> sentForces, appliedForces;
+    std::array<std::vector<Command>, kCommandTopics> sent, applied;
     for (const rosbag::MessageInstance& m : view) {
       const std::string& topic = m.getTopic();
       if (topic == topics.scene) {
@@ -98,30 +141,23 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
           if (run.frame.empty()) run.frame = msg->header.frame_id;
           run.states.push_back({msg->step, msg->header.stamp, msg->state_hash});
         }
-      } else if (topic == topics.appliedPin) {
-        if (auto msg = m.instantiate<PinCommand>()) appliedPins.push_back(*msg);
-      } else if (topic == topics.appliedForce) {
-        if (auto msg = m.instantiate<ForceCommand>()) appliedForces.push_back(*msg);
-      } else if (topic == topics.pin) {
-        if (auto msg = m.instantiate<PinCommand>()) {
-          sentPins.push_back(*msg);
-          if (sentPins.back().header.stamp.isZero()) sentPins.back().header.stamp = m.getTime();
-        }
-      } else if (topic == topics.force) {
-        if (auto msg = m.instantiate<ForceCommand>()) {
-          sentForces.push_back(*msg);
-          if (sentForces.back().header.stamp.isZero()) sentForces.back().header.stamp = m.getTime();
-        }
       } else if (topic == "/tf" || topic == "/tf_static") {
         if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
           for (const auto& t : msg->transforms) run.tf->setTransform(t, "bag", topic == "/tf_static");
         }
+      } else {
+        readCommand(m, topics, &sent, &applied);
       }
     }
-    run.exactCommands = !appliedPins.empty() || !appliedForces.empty() ||
-                        (sentPins.empty() && sentForces.empty());
-    run.pins = run.exactCommands ? std::move(appliedPins) : std::move(sentPins);
-    run.forces = run.exactCommands ? std::move(appliedForces) : std::move(sentForces);
+    bool anyApplied = false, anySent = false;
+    for (std::size_t k = 0; k < kCommandTopics; ++k) {
+      anyApplied = anyApplied || !applied[k].empty();
+      anySent = anySent || !sent[k].empty();
+    }
+    run.exactCommands = anyApplied || !anySent;
+    for (std::vector<Command>& topic : run.exactCommands ? applied : sent) {
+      for (Command& c : topic) run.commands.push_back(std::move(c));
+    }
   } catch (const rosbag::BagException& e) {
     return Error{"bag '" + path + "' is truncated or damaged: " + e.what()};
   }

@@ -17,20 +17,11 @@ namespace {
 
 Expected<YAML::Node> sceneDocument(const RecordedRun* run, const BagRunOptions& options) {
   if (!options.sceneFile.empty()) return loadSceneDocument(options.sceneFile, options.overrides);
-  if (run == nullptr || run->sceneYaml.empty()) {
-    return Error{run == nullptr
-                     ? "no scene: give --scene"
-                     : "bag '" + run->path + "' holds no scene (" + RunTopics(options.node).scene +
-                           "); record with launch/record.launch or give --scene"};
-  }
-  YAML::Node doc;
-  try {
-    doc = YAML::Load(run->sceneYaml);
-  } catch (const YAML::Exception& e) {
-    return Error{"the scene stored in bag '" + run->path + "' is not valid YAML: " + e.msg};
-  }
+  if (run == nullptr) return Error{"no scene: give --scene"};
+  Expected<YAML::Node> doc = storedScene(*run, options.node);
+  if (!doc) return Error{doc.error() + " (--scene)"};
   for (const std::string& o : options.overrides) {
-    if (Status s = applySceneOverride(doc, o); !s) return Error{s.error()};
+    if (Status s = applySceneOverride(*doc, o); !s) return Error{s.error()};
   }
   return doc;
 }
@@ -62,7 +53,62 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_;
 };
 
+// The commands the step applied, topic after topic, each on its applied_ topic.
+void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& out) {
+  forEachCommandType([&](auto type) {
+    using C = typename decltype(type)::type;
+    for (const C& c : driver.takeApplied<C>()) out.write(topics.applied(topicOf<C>()), c.header.stamp, c);
+  });
+}
+
+// The SimulationDriver fed with a recorded run, as the report steps it.
+class DriverRun : public DrivenSimulation {
+ public:
+  DriverRun(Simulation simulation, const RecordedRun& run, double recordedDt)
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get()) {
+    // A command the driver rejects was rejected live as well (the recording holds the applied
+    // stream): skipping it is what the node did.
+    for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
+  }
+  Simulator& simulator() override { return driver_.simulator(); }
+  StepReport step() override { return driver_.step(); }
+
+ private:
+  static DriverSettings settingsFor(const RecordedRun& run, double dt) {
+    DriverSettings settings;
+    settings.epoch = runEpoch(run, dt).value_or(run.begin);
+    if (!run.frame.empty()) settings.frame = run.frame;
+    return settings;
+  }
+  SimulationDriver driver_;
+};
+
+class BagRecording : public Recording {
+ public:
+  BagRecording(RecordedRun run, std::string node) : run_(std::move(run)), node_(std::move(node)) {}
+  const std::string& path() const override { return run_.path; }
+  Expected<YAML::Node> scene() const override { return storedScene(run_, node_); }
+  double recordedDuration() const override {
+    double recorded = 0.0;
+    for (const RecordedState& s : run_.states) recorded = std::max(recorded, (s.stamp - run_.states.front().stamp).toSec());
+    return recorded;
+  }
+  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, double recordedDt) const override {
+    return std::make_unique<DriverRun>(std::move(simulation), run_, recordedDt);
+  }
+
+ private:
+  RecordedRun run_;
+  std::string node_;
+};
+
 }  // namespace
+
+Expected<std::shared_ptr<const Recording>> readRecording(const std::string& path, const std::string& node) {
+  Expected<RecordedRun> run = readRun(path, node);
+  if (!run) return Error{run.error()};
+  return std::shared_ptr<const Recording>(std::make_shared<BagRecording>(std::move(run).value(), node));
+}
 
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options) {
@@ -94,8 +140,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
-  SimulationDriver driver(std::move(simulation).value(), *scene, settings,
-                          run ? run->tf.get() : nullptr);
+  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.
@@ -103,20 +148,12 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   double lastCommand = 0.0;
   if (run) {
     report.exactCommands = run->exactCommands;
-    for (const PinCommand& c : run->pins) {
-      ++report.pinCommands;
-      lastCommand = std::max(lastCommand, (c.header.stamp - settings.epoch).toSec());
+    for (const Command& c : run->commands) {
+      ++report.commands[static_cast<std::size_t>(topicOf(c))];
+      lastCommand = std::max(lastCommand, (headerOf(c).stamp - settings.epoch).toSec());
       if (Status s = driver.submit(c); !s) {
         ++report.rejected;
-        report.warnings.push_back("pin command rejected (as live): " + s.error());
-      }
-    }
-    for (const ForceCommand& c : run->forces) {
-      ++report.forceCommands;
-      lastCommand = std::max(lastCommand, (c.header.stamp - settings.epoch).toSec());
-      if (Status s = driver.submit(c); !s) {
-        ++report.rejected;
-        report.warnings.push_back("force command rejected (as live): " + s.error());
+        report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
       }
     }
     for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
@@ -125,7 +162,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   if (!(duration > 0.0)) {
     if (!recorded.empty()) {
       duration = static_cast<double>(recorded.rbegin()->first) * dt;
-    } else if (report.pinCommands + report.forceCommands > 0) {
+    } else if (!run->commands.empty()) {
       duration = lastCommand + 1.0;
     } else {
       duration = scene->duration;
@@ -147,13 +184,13 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   sceneMsg.data = sceneDocumentToString(*doc);
   const ros::Time origin = driver.stampOf(0.0).isZero() ? ros::Time(1e-9) : driver.stampOf(0.0);
   out.write(topics.scene, origin, sceneMsg);
-  out.write(topics.mesh, origin, driver.meshMessage());
+  out.write(topics.mesh, origin, toMsg(driver.simulator().model().mesh()));
   auto record = [&](const StepReport& r, double wall) {
     const ros::Time t = driver.now().isZero() ? origin : driver.now();
-    const ClothState state = driver.stateMessage();
+    const ClothState state = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), false);
     out.write(topics.state, t, state);
-    out.write(topics.energy, t, driver.energyMessage());
-    out.write(topics.stats, t, driver.statsMessage(r, wall, 0.0));
+    out.write(topics.energy, t, toMsg(driver.header(), driver.stepIndex(), driver.simulator().energies()));
+    out.write(topics.stats, t, statsMessage(driver, r, wall, 0.0));
     auto it = recorded.find(state.step);
     if (it != recorded.end()) {
       ++report.compared;
@@ -177,8 +214,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     }
     const StepReport r = driver.step();
     for (std::string& w : driver.takeWarnings()) report.warnings.push_back(std::move(w));
-    for (PinCommand& c : driver.takeAppliedPins()) out.write(topics.appliedPin, c.header.stamp, c);
-    for (ForceCommand& c : driver.takeAppliedForces()) out.write(topics.appliedForce, c.header.stamp, c);
+    writeApplied(driver, topics, out);
     if (!r.ok) {
       return Error{"the simulation failed at step " + std::to_string(k + 1) + ": " + r.error};
     }
