@@ -3,7 +3,8 @@
 #   fem_cloth_core       Eigen 3.3 (OpenMP and CHOLMOD when found, as with catkin)
 #   fem_cloth_rendering  the core only (libpng is for fem_cloth_render, a ROS program)
 #   fem_cloth_io         yaml-cpp
-#   fem_cloth_materials  CLI11 and nlohmann_json
+#   fem_cloth_validate_lib  the core only
+#   fem_cloth_materials, fem_cloth_validate  CLI11 and nlohmann_json
 #   the core tests       googletest (Debian: googletest or libgtest-dev), run with ctest
 # and prints one STATUS line naming what it builds and what it leaves out, and why.
 #
@@ -38,7 +39,8 @@ endfunction()
 # The STATUS line: what this build has and what it leaves out (called after all targets).
 function(fem_cloth_plain_summary)
   set(built)
-  foreach(target fem_cloth_core fem_cloth_rendering fem_cloth_io fem_cloth_materials fem_cloth_bench)
+  foreach(target fem_cloth_core fem_cloth_rendering fem_cloth_io fem_cloth_validate_lib
+      fem_cloth_materials fem_cloth_validate fem_cloth_bench)
     if(TARGET ${target})
       list(APPEND built ${target})
     endif()
@@ -49,7 +51,7 @@ function(fem_cloth_plain_summary)
     list(APPEND left "fem_cloth_io and the tests on scenes (yaml-cpp not found)")
   endif()
   if(NOT TARGET fem_cloth_materials)
-    list(APPEND left "fem_cloth_materials and its test (CLI11 or nlohmann_json not found)")
+    list(APPEND left "fem_cloth_materials, fem_cloth_validate and their tests (CLI11 or nlohmann_json not found)")
   endif()
   if(NOT TARGET fem_cloth_bench)
     list(APPEND left "fem_cloth_bench (Google Benchmark or yaml-cpp not found)")
