@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <map>
 
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/simulation_driver.h"
 
@@ -62,6 +63,64 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_;
 };
 
+// The step of the recorded run, which dates its states: that of the scene stored in the bag
+// (a replay with --scene or --set may step differently), else the replay's.
+double recordedDt(const RecordedRun& run, double replayDt) {
+  if (run.sceneYaml.empty()) return replayDt;
+  try {
+    const Expected<Scene> recorded = parseScene(YAML::Load(run.sceneYaml));
+    if (recorded) return recorded->dt;
+  } catch (const YAML::Exception&) {
+  }
+  return replayDt;
+}
+
+// The ROS time of simulation time 0: from the recorded states, else the start of the bag (or 0
+// without one). Every stamp the replay compares with it lies within kMaxRecordingSpan of the
+// start of the recording (readRun), so keeping it there too keeps their differences within what
+// ros::Duration holds.
+Expected<ros::Time> replayEpoch(const RecordedRun* run, double dt) {
+  if (run == nullptr) return ros::Time(0);
+  if (run->states.empty()) return run->begin;
+  const std::optional<ros::Time> epoch = runEpoch(*run, recordedDt(*run, dt));
+  const RecordedState& first = run->states.front();
+  if (!epoch || std::abs(epoch->toSec() - run->begin.toSec()) > kMaxRecordingSpan) {
+    return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
+                 ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
+                 "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
+  }
+  return *epoch;
+}
+
+// How long the run lasts (s): --duration, else up to the last recorded state, the last command
+// + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from `epoch`, within the
+// recording's span and ros::Time.
+Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene, double lastRecorded,
+                                double lastCommand, bool anyCommand, const ros::Time& epoch,
+                                const ros::Time& reference) {
+  double duration = options.duration;
+  std::string what = "--duration";
+  if (!(duration > 0.0)) {
+    if (lastRecorded > 0.0) {
+      duration = lastRecorded;
+      what = "the last recorded state";
+    } else if (anyCommand) {
+      duration = lastCommand + 1.0;
+      what = "the last command";
+    } else {
+      duration = scene.duration;
+      what = "the scene's duration";
+    }
+  }
+  FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
+  const double end = epoch.toSec() + duration;
+  if (!(end - reference.toSec() <= kMaxRecordingSpan && end < 4294967295.0)) {
+    return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
+                 (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
+  }
+  return duration;
+}
+
 }  // namespace
 
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
@@ -77,6 +136,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   if (!doc) return Error{doc.error()};
   Expected<Scene> scene = parseScene(*doc, options.sceneFile);
   if (!scene) return Error{"scene: " + scene.error()};
+  FEM_CLOTH_CHECK(checkNotAnInput(outBag, {inBag, options.sceneFile, meshFilePath(*scene)}));
   Expected<Simulation> simulation = buildSimulation(*scene);
   if (!simulation) return Error{"scene: " + simulation.error()};
   if (run && run->mesh) {
@@ -86,14 +146,14 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   }
   const double dt = scene->dt;
   DriverSettings settings;
-  settings.epoch = ros::Time(0);
-  if (run) {
-    settings.epoch = runEpoch(*run, dt).value_or(run->begin);
-    if (!run->frame.empty()) settings.frame = run->frame;
-  }
+  Expected<ros::Time> epoch = replayEpoch(run ? &*run : nullptr, dt);
+  if (!epoch) return Error{epoch.error()};
+  settings.epoch = *epoch;
+  if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
+  if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), *scene, settings,
                           run ? run->tf.get() : nullptr);
   report.integrator = driver.simulator().integrator().name();
@@ -103,35 +163,24 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   double lastCommand = 0.0;
   if (run) {
     report.exactCommands = run->exactCommands;
-    for (const PinCommand& c : run->pins) {
-      ++report.pinCommands;
-      lastCommand = std::max(lastCommand, (c.header.stamp - settings.epoch).toSec());
+    auto submit = [&](const auto& c, std::size_t& count, const char* kind) {
+      ++count;
+      lastCommand = std::max(lastCommand, c.header.stamp.toSec() - settings.epoch.toSec());
       if (Status s = driver.submit(c); !s) {
         ++report.rejected;
-        report.warnings.push_back("pin command rejected (as live): " + s.error());
+        report.warnings.push_back(std::string(kind) + " command rejected (as live): " + s.error());
       }
-    }
-    for (const ForceCommand& c : run->forces) {
-      ++report.forceCommands;
-      lastCommand = std::max(lastCommand, (c.header.stamp - settings.epoch).toSec());
-      if (Status s = driver.submit(c); !s) {
-        ++report.rejected;
-        report.warnings.push_back("force command rejected (as live): " + s.error());
-      }
-    }
+    };
+    for (const PinCommand& c : run->pins) submit(c, report.pinCommands, "pin");
+    for (const ForceCommand& c : run->forces) submit(c, report.forceCommands, "force");
     for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
   }
-  double duration = options.duration;
-  if (!(duration > 0.0)) {
-    if (!recorded.empty()) {
-      duration = static_cast<double>(recorded.rbegin()->first) * dt;
-    } else if (report.pinCommands + report.forceCommands > 0) {
-      duration = lastCommand + 1.0;
-    } else {
-      duration = scene->duration;
-    }
-  }
-  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(duration / dt - 1e-9)));
+  Expected<double> duration = replayDuration(
+      options, *scene, recorded.empty() ? 0.0 : static_cast<double>(recorded.rbegin()->first) * dt,
+      lastCommand, report.pinCommands + report.forceCommands > 0, settings.epoch,
+      run ? run->begin : ros::Time(0));
+  if (!duration) return Error{duration.error()};
+  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(*duration / dt - 1e-9)));
   const std::uint64_t every =
       options.every > 0 ? static_cast<std::uint64_t>(options.every)
                         : std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(1.0 / (30.0 * dt))));
@@ -180,7 +229,9 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     for (PinCommand& c : driver.takeAppliedPins()) out.write(topics.appliedPin, c.header.stamp, c);
     for (ForceCommand& c : driver.takeAppliedForces()) out.write(topics.appliedForce, c.header.stamp, c);
     if (!r.ok) {
-      return Error{"the simulation failed at step " + std::to_string(k + 1) + ": " + r.error};
+      // No bag: the writer removes its temporary file.
+      report.failure = "the simulation failed at step " + std::to_string(k + 1) + ": " + r.error;
+      break;
     }
     ++report.steps;
     if (wanted(driver.stepIndex())) {
@@ -192,7 +243,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.simulated = driver.simulator().time();
   report.finalHash = stateHash(driver.simulator().state().x, driver.simulator().state().v);
   report.energy = driver.simulator().energies();
-  if (Status s = out.close(); !s) return Error{s.error()};
+  if (report.failure.empty()) FEM_CLOTH_CHECK(out.close());
   return report;
 }
 
