@@ -22,19 +22,6 @@ std::string defaultSceneFile() {
   return share.empty() ? std::string() : share + "/config/hanging_cloth.yaml";
 }
 
-// Reads an optional private parameter of type T, checking its type: a parameter that is set
-// with the wrong type is an error naming it.
-template <typename T>
-bool readParam(const ros::NodeHandle& nh, const std::string& name, T& value, std::string* error,
-               const char* expected) {
-  if (!nh.hasParam(name)) return true;
-  if (!nh.getParam(name, value)) {
-    *error = "parameter ~" + name + " must be " + expected;
-    return false;
-  }
-  return true;
-}
-
 // Steps between publications for a rate in Hz (0: every step).
 std::uint64_t everyFor(double rate, double dt) {
   if (rate <= 0.0) return 1;
@@ -44,11 +31,15 @@ std::uint64_t everyFor(double rate, double dt) {
 }  // namespace
 
 const std::vector<std::string>& ClothNode::parameterNames() {
-  static const std::vector<std::string> names = {
-      "scene_file",   "frame_id",      "time_mode",          "real_time_factor",
-      "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
-      "always_publish", "start_paused", "tf_timeout",        "strain_color_max",
-      "step_lag",     "replay_bag"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> own = {
+        "scene_file",   "frame_id",      "time_mode",          "real_time_factor",
+        "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
+        "always_publish", "start_paused", "tf_timeout",        "step_lag",
+        "replay_bag"};
+    own.insert(own.end(), perceptionParameterNames().begin(), perceptionParameterNames().end());
+    return own;
+  }();
   return names;
 }
 
@@ -68,7 +59,6 @@ bool ClothNode::readParameters(std::string* error) {
       !readParam(private_, "always_publish", alwaysPublish_, error, "true or false") ||
       !readParam(private_, "start_paused", startPaused_, error, "true or false") ||
       !readParam(private_, "tf_timeout", tfTimeout_, error, "a number (s)") ||
-      !readParam(private_, "strain_color_max", strainColorMax_, error, "a number") ||
       !readParam(private_, "step_lag", stepLag_, error, "a number (s)") ||
       !readParam(private_, "replay_bag", replayBag_, error, "a path")) {
     return false;
@@ -108,10 +98,6 @@ bool ClothNode::readParameters(std::string* error) {
   }
   if (!(tfTimeout_ > 0.0)) {
     *error = "parameter ~tf_timeout must be positive (s)";
-    return false;
-  }
-  if (!(strainColorMax_ > 0.0)) {
-    *error = "parameter ~strain_color_max must be positive";
     return false;
   }
   return true;
@@ -173,7 +159,6 @@ bool ClothNode::start(std::string* error) {
   settings.frame = frame_;
   settings.tfTimeout = tfTimeout_;
   settings.publishVelocities = publishVelocities_;
-  settings.strainColorMax = strainColorMax_;
   const double dt = scene->dt;
   driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), *scene, settings,
                                                &tfBuffer_);
@@ -186,9 +171,22 @@ bool ClothNode::start(std::string* error) {
   statePub_ = private_.advertise<ClothState>("state", 10);
   energyPub_ = private_.advertise<ClothEnergy>("energy", 10);
   statsPub_ = private_.advertise<StepStats>("stats", 10);
-  markerPub_ = private_.advertise<visualization_msgs::Marker>("marker", 2);
   pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
   pinWrenchPub_ = private_.advertise<geometry_msgs::WrenchStamped>("pin_wrench", 10);
+  // Perception outputs (perception.h): ~points, ~camera/*, ~marker and tf frames.
+  PerceptionSettings perception;
+  perception.frame = frame_;
+  perception.originFrame = ros::this_node::getName().substr(1);
+  perception.alwaysPublish = alwaysPublish_;
+  perception.clothFrames = replayBag_.empty();
+  if (!readPerceptionParameters(private_, perception, error)) return false;
+  Expected<std::unique_ptr<PerceptionOutputs>> outputs =
+      PerceptionOutputs::create(private_, *driver_, tfBuffer_, std::move(perception));
+  if (!outputs) {
+    *error = outputs.error();
+    return false;
+  }
+  perception_ = std::move(outputs).value();
   // Obstacles (only when the scene has some: a scene pays for what it declares).
   const std::vector<std::string> obstacles = driver_->obstacleNames();
   if (!obstacles.empty()) {
@@ -371,7 +369,9 @@ void ClothNode::publishClock() {
 
 void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool force) {
   const std::uint64_t step = driver_->stepIndex();
-  if (force || step % publishEvery_ == 0) {
+  const bool stateDue = force || step % publishEvery_ == 0;
+  const bool markerDue = force || step % markerEvery_ == 0;
+  if (stateDue) {
     statePub_.publish(driver_->stateMessage());
     if (wanted(energyPub_)) energyPub_.publish(driver_->energyMessage());
     if (wanted(statsPub_)) statsPub_.publish(driver_->statsMessage(report, wallTime, realTimeFactorMeasured_));
@@ -388,12 +388,10 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
       }
     }
   }
-  if (force || step % markerEvery_ == 0) {
-    if (wanted(markerPub_)) markerPub_.publish(driver_->markerMessage());
-    if (obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
-      obstacleMarkerPub_.publish(driver_->obstacleMarkers());
-    }
+  if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
+    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
   }
+  perception_->publish(stateDue, markerDue);
   publishDiagnostics(false);
 }
 

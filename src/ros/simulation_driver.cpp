@@ -56,25 +56,6 @@ Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertic
   return Status::success();
 }
 
-// Blue (unstrained) through white to red (strain >= maxStrain).
-std_msgs::ColorRGBA strainColour(double strain, double maxStrain) {
-  const double u = std::clamp(strain / maxStrain, 0.0, 1.0);
-  std_msgs::ColorRGBA c;
-  c.a = 1.0f;
-  if (u < 0.5) {
-    const double w = 2.0 * u;
-    c.r = static_cast<float>(0.15 + 0.85 * w);
-    c.g = static_cast<float>(0.35 + 0.65 * w);
-    c.b = 1.0f;
-  } else {
-    const double w = 2.0 * (u - 0.5);
-    c.r = 1.0f;
-    c.g = static_cast<float>(1.0 - 0.8 * w);
-    c.b = static_cast<float>(1.0 - 0.85 * w);
-  }
-  return c;
-}
-
 }  // namespace
 
 std::string stateHash(const VectorX& x, const VectorX& v) {
@@ -548,33 +529,6 @@ StepStats SimulationDriver::statsMessage(const StepReport& r, double wallTime,
                                     simulator().state().x);
   msg.contacts = static_cast<std::uint32_t>(std::max(r.contacts, 0));
   return msg;
-}
-
-visualization_msgs::Marker SimulationDriver::markerMessage() {
-  const Mesh& mesh = simulator().model().mesh();
-  const VectorX& x = simulator().state().x;
-  const int d = mesh.dim;
-  triangleStrains(mesh, simulator().model().rest(), x, strains_);
-  visualization_msgs::Marker m;
-  m.header.stamp = now();
-  m.header.frame_id = settings_.frame;
-  m.ns = "cloth";
-  m.id = 0;
-  m.type = visualization_msgs::Marker::TRIANGLE_LIST;
-  m.action = visualization_msgs::Marker::ADD;
-  m.pose.orientation.w = 1.0;
-  m.scale.x = m.scale.y = m.scale.z = 1.0;
-  m.color.a = 1.0f;
-  m.points.resize(3 * mesh.triangles.size());
-  m.colors.resize(3 * mesh.triangles.size());
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const std_msgs::ColorRGBA c = strainColour(strains_[t], settings_.strainColorMax);
-    for (int k = 0; k < 3; ++k) {
-      m.points[3 * t + k] = vertexMessage<geometry_msgs::Point>(x, d, mesh.triangles[t][k]);
-      m.colors[3 * t + k] = c;
-    }
-  }
-  return m;
 }
 
 PinForces SimulationDriver::pinForcesMessage() const {

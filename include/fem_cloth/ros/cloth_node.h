@@ -17,12 +17,12 @@
 //   always_publish    bool    compute energies, markers and reactions even with no subscriber
 //   start_paused      bool    wait for ~resume or ~step (false)
 //   tf_timeout        double  s after which a frame's newest transform counts as stale (1.0)
-//   strain_color_max  double  strain shown fully red in ~marker (0.05)
 //   step_lag          double  s the node stays behind ROS time in real_time mode, so that the
 //                             commands and transforms for a step have arrived when it is taken:
 //                             what makes a live replay reproduce a recording (0)
 //   replay_bag        string  a recorded run: its scene (unless one is given) and its time
 //                             origin (start_time) are used, for replaying it live
+// and the perception parameters (point cloud, camera, tf frames, marker look: perception.h).
 #pragma once
 
 #include <ros/ros.h>
@@ -37,6 +37,7 @@
 #include <string>
 
 #include "fem_cloth/Advance.h"
+#include "fem_cloth/ros/perception.h"
 #include "fem_cloth/ros/simulation_driver.h"
 
 namespace fem_cloth {
@@ -81,6 +82,7 @@ class ClothNode {
   tf2_ros::Buffer tfBuffer_;
   std::unique_ptr<tf2_ros::TransformListener> tfListener_;
   std::unique_ptr<SimulationDriver> driver_;
+  std::unique_ptr<PerceptionOutputs> perception_;  // ~points, ~camera/*, ~marker, tf frames
   std::mutex mutex_;
   std::condition_variable wake_;
 
@@ -90,7 +92,7 @@ class ClothNode {
   double realTimeFactor_ = 1.0;
   double publishRate_ = 30.0, markerRate_ = 10.0;
   bool publishVelocities_ = false, alwaysPublish_ = false, startPaused_ = false;
-  double tfTimeout_ = 1.0, strainColorMax_ = 0.05;
+  double tfTimeout_ = 1.0;
   bool hasStartTime_ = false;
   ros::Time startTime_;  // exact: a time origin from a bag must not pass through a double
   double stepLag_ = 0.0;
@@ -110,7 +112,7 @@ class ClothNode {
   ros::WallTime tfWaitStart_;
 
   ros::Subscriber pinSub_, forceSub_;
-  ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, markerPub_, pinForcesPub_,
+  ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, pinForcesPub_,
       pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_,
       obstacleMarkerPub_;
   std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order

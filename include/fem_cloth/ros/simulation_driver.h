@@ -42,7 +42,6 @@ struct DriverSettings {
   /// referring to it are rejected, and following pins keep their last target.
   double tfTimeout = 1.0;
   bool publishVelocities = false;
-  double strainColorMax = 0.05;  ///< marker colour scale: strain (s1 - 1) shown fully red
 };
 
 /// 64-bit FNV-1a over the bits of the positions, then the velocities, as 16 hex digits.
@@ -95,7 +94,6 @@ class SimulationDriver {
   ClothState stateMessage() const;
   ClothEnergy energyMessage();
   StepStats statsMessage(const StepReport& report, double wallTime, double realTimeFactor) const;
-  visualization_msgs::Marker markerMessage();
   PinForces pinForcesMessage() const;
   /// One wrench per grasp frame (the sum over the pins that follow it, expressed in that frame,
   /// torque about its origin) and one in the simulation frame for pins fixed there.
@@ -150,7 +148,6 @@ class SimulationDriver {
   std::vector<std::string> warnings_;
   std::vector<PinCommand> appliedPins_;
   std::vector<ForceCommand> appliedForces_;
-  std::vector<double> strains_;
 };
 
 }  // namespace fem_cloth
