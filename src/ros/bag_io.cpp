@@ -14,6 +14,7 @@
 
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/io/output_file.h"
+#include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
 
@@ -57,7 +58,7 @@ namespace {
 
 Status checkStamp(const ros::Time& stamp, const ros::Time& begin, const std::string& what) {
   if (stamp.isZero()) return Status::success();  // "now" for commands, static for tf
-  const double distance = std::abs(stamp.toSec() - begin.toSec());
+  const double distance = std::abs(secondsBetween(stamp, begin));
   if (!(distance <= kMaxRecordingSpan)) {
     return Error{what + " has the stamp " + numberText(stamp.toSec()) + " s, " + numberText(distance) +
                  " s from the start of the recording (" + numberText(begin.toSec()) +
@@ -217,7 +218,7 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     run.end = view.getEndTime();
     if (Status s = checkTypes(view, topics); !s) return Error{"bag '" + path + "': " + s.error()};
     // tf keeps transforms this long (s): the whole recording.
-    const double span = std::min(std::max(run.end.toSec() - run.begin.toSec(), 0.0), kMaxRecordingSpan);
+    const double span = std::min(std::max(secondsBetween(run.end, run.begin), 0.0), kMaxRecordingSpan);
     run.tf = std::make_shared<tf2::BufferCore>(ros::Duration(span + 60.0));
     RunReader reader(run, topics);
     for (const rosbag::MessageInstance& m : view) {

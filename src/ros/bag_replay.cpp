@@ -6,11 +6,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 
 #include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/simulation_driver.h"
+#include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
 
@@ -84,7 +86,7 @@ Expected<ros::Time> replayEpoch(const RecordedRun* run, double dt) {
   if (run->states.empty()) return run->begin;
   const std::optional<ros::Time> epoch = runEpoch(*run, recordedDt(*run, dt));
   const RecordedState& first = run->states.front();
-  if (!epoch || std::abs(epoch->toSec() - run->begin.toSec()) > kMaxRecordingSpan) {
+  if (!epoch || std::abs(secondsBetween(*epoch, run->begin)) > kMaxRecordingSpan) {
     return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
                  ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
                  "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
@@ -114,7 +116,7 @@ Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene
   }
   FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
   const double end = epoch.toSec() + duration;
-  if (!(end - reference.toSec() <= kMaxRecordingSpan && end < 4294967295.0)) {
+  if (!(secondsBetween(epoch, reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
     return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
                  (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
   }
@@ -137,6 +139,10 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   Expected<Scene> scene = parseScene(*doc, options.sceneFile);
   if (!scene) return Error{"scene: " + scene.error()};
   FEM_CLOTH_CHECK(checkNotAnInput(outBag, {inBag, options.sceneFile, meshFilePath(*scene)}));
+  // Found now rather than when the finished bag cannot be renamed into place.
+  if (std::error_code ec; std::filesystem::is_directory(outBag, ec)) {
+    return Error{"cannot write bag '" + outBag + "': it is a directory"};
+  }
   Expected<Simulation> simulation = buildSimulation(*scene);
   if (!simulation) return Error{"scene: " + simulation.error()};
   if (run && run->mesh) {
@@ -165,7 +171,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     report.exactCommands = run->exactCommands;
     auto submit = [&](const auto& c, std::size_t& count, const char* kind) {
       ++count;
-      lastCommand = std::max(lastCommand, c.header.stamp.toSec() - settings.epoch.toSec());
+      lastCommand = std::max(lastCommand, secondsBetween(c.header.stamp, settings.epoch));
       if (Status s = driver.submit(c); !s) {
         ++report.rejected;
         report.warnings.push_back(std::string(kind) + " command rejected (as live): " + s.error());

@@ -10,6 +10,7 @@
 
 #include "../run_program.h"
 #include "fem_cloth/ClothState.h"
+#include "fem_cloth/ForceCommand.h"
 #include "fem_cloth/PinCommand.h"
 #include <rosbag/view.h>
 #include <tf2_msgs/TFMessage.h>
@@ -235,6 +236,55 @@ TEST(FemClothSimBags, RecordingsAfter2038ReplayBitForBit) {
   ASSERT_TRUE(std::regex_search(early.out, a, digest));
   ASSERT_TRUE(std::regex_search(again.out, b, digest));
   EXPECT_EQ(a[1], b[1]);
+}
+
+// Commands of a recording made after 2038 (stamps beyond 2^31 s): the replay takes their times
+// from the run's origin in 64-bit nanoseconds (secondsBetween), so the same force, stamped 0.105 s
+// into the run, gives the same final state whether the recording started at 10 s or at 3e9 + 10 s;
+// and it is applied (the state differs from the replay without it).
+TEST(FemClothSimBags, CommandsOfARecordingAfter2038Replay) {
+  const std::string run = scratch().path("commands_early.bag");
+  ASSERT_EQ(sim({"--scene", kScene, "--duration", "0.3", "--out", run, "-q"}).status, 0);
+  auto shifted = [&](const std::string& name, double shift, bool withForce) {
+    const std::string path = scratch().path(name);
+    rosbag::Bag in(run), out(path, rosbag::bagmode::Write);
+    ros::Time epoch;
+    for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+      if (auto s = m.instantiate<fem_cloth::ClothState>()) {
+        if (s->step == 0) epoch = s->header.stamp;
+        s->header.stamp = ros::Time(s->header.stamp.toSec() + shift);
+        out.write(m.getTopic(), ros::Time(m.getTime().toSec() + shift), *s);
+      } else if (auto scene = m.instantiate<std_msgs::String>()) {
+        out.write(m.getTopic(), ros::Time(m.getTime().toSec() + shift), *scene);
+      }
+    }
+    if (withForce) {
+      fem_cloth::ForceCommand force;
+      force.header.stamp = ros::Time(epoch.toSec() + shift + 0.105);
+      force.header.frame_id = "world";
+      force.action = fem_cloth::ForceCommand::APPLY;
+      force.vertices = {40};
+      force.forces.resize(1);
+      force.forces[0].x = 2.0;
+      out.write("/fem_cloth_node/force", force.header.stamp, force);
+    }
+    return path;
+  };
+  static const std::regex digest("digest: +([0-9a-f]{16})");
+  auto replayDigest = [&](const std::string& bag) {
+    const ProgramResult r = sim({"--commands", bag, "--out", bag + ".replay.bag", "-q"});
+    EXPECT_EQ(r.status, 0) << bag << ": " << r.err;
+    std::smatch d;
+    return std::regex_search(r.out, d, digest) ? d[1].str() : "no digest in: " + r.out;
+  };
+  const std::string late = shifted("commands_late.bag", 3e9, true);
+  const ProgramResult lateRun = sim({"--commands", late, "--out", scratch().path("commands_late_again.bag"), "-q"});
+  ASSERT_EQ(lateRun.status, 0) << lateRun.err;
+  EXPECT_NE(lateRun.out.find("0 pin, 1 force"), std::string::npos) << lateRun.out;
+  EXPECT_NE(lateRun.out.find("0 rejected"), std::string::npos) << lateRun.out;
+  const std::string early = replayDigest(shifted("commands_early_force.bag", 0.0, true));
+  EXPECT_EQ(replayDigest(late), early);
+  EXPECT_NE(replayDigest(shifted("commands_late_none.bag", 3e9, false)), early);
 }
 
 // A recording that spans a reset of the node (~reset: the state's step goes back) cannot be
