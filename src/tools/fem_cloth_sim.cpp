@@ -532,6 +532,14 @@ int run(int argc, char** argv) {
     std::cerr << "fem_cloth_sim: --check and --write-scene need --scene (and no --commands)\n";
     return 2;
   }
+  // Before the run, not after it: a --summary-json naming the recording would be refused only
+  // once the replay is done.
+  for (const std::string* out : {&opt.writeScene, &opt.summaryJson}) {
+    if (Status s = out->empty() ? Status::success() : checkNotAnInput(*out, {opt.scene, opt.commands}); !s) {
+      std::cerr << "fem_cloth_sim: " << oneLine(s.error()) << '\n';
+      return 2;
+    }
+  }
   if (!opt.writeScene.empty() || opt.check) {
     if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
   }

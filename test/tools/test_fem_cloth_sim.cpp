@@ -230,6 +230,18 @@ TEST(FemClothSim, AnOutputIsNeverAnInput) {
   expectUsageError({"--scene", sceneBag, "--out", sceneBag, "-q"}, {"scene_as.bag", "is the input"});
   EXPECT_EQ(readFile(bag), before);
   EXPECT_EQ(readFile(sceneBag), readFile(scene));
+  // The small outputs for programs: --write-scene onto the scene (it would drop its comments),
+  // --summary-json onto the scene or the recording.
+  const std::string copy = scratch().path("scene_copy.yaml");
+  std::filesystem::copy_file(scene, copy);
+  expectUsageError({"--scene", copy, "--set", "integrator.dt=0.005", "--write-scene", copy},
+                   {"the output", "scene_copy.yaml", "is the input"});
+  expectUsageError({"--scene", copy, "--duration", "0.02", "--no-output", "-q", "--summary-json", copy},
+                   {"scene_copy.yaml", "is the input"});
+  expectUsageError({"--commands", bag, "--out", scratch().path("other.bag"), "-q", "--summary-json", bag},
+                   {"self.bag", "is the input"});
+  EXPECT_EQ(readFile(copy), readFile(scene));
+  EXPECT_EQ(readFile(bag), before);
 }
 
 namespace {
