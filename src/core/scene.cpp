@@ -143,7 +143,7 @@ Status validateMeshKeys(const Scene& s) {
   if ((s.meshType != "grid") && s.dim != 2 && s.dim != 3) {
     return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.dim)};
   }
-  if (s.meshType == "explicit" && s.explicitMesh.restPositions.size() > 3 * Eigen::Index{kMaxVertices}) {
+  if (s.meshType == "explicit" && s.explicitMesh.restPositions.size() > s.dim * Eigen::Index{kMaxVertices}) {
     return Error{"mesh.vertices has more than the " + std::to_string(kMaxVertices) + " vertices allowed"};
   }
   if (!(s.minTriangleQuality >= 0.0 && s.minTriangleQuality < 1.0)) {
