@@ -206,6 +206,9 @@ TEST(FemClothSimBags, BagsThatUsedToCrashAreOneLineAndStatus2) {
   // Not a bag file at all.
   std::filesystem::create_directories(scratch().path("folder.bag"));
   expectBadBag(sim({"--commands", scratch().path("folder.bag"), "--out", out, "-q"}), {"folder.bag", "not a regular file"});
+  // A folder as the output: refused before the run, not when the bag cannot be renamed onto it.
+  expectBadBag(sim({"--scene", kScene, "--duration", "0.05", "--out", scratch().path("folder.bag"), "-q"}),
+               {"folder.bag", "it is a directory"});
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
