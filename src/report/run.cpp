@@ -12,7 +12,6 @@
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
-#include "fem_cloth/ros/simulation_driver.h"
 
 namespace fem_cloth::report {
 
@@ -108,18 +107,10 @@ RunResult runScene(const RunRequest& request) {
   const EdgeStretchMeter stretchMeter(*mesh);
 
   // The stepping: the scene's own script, or the node's driver fed with a recorded run.
-  std::unique_ptr<SimulationDriver> driver;
+  std::unique_ptr<DrivenSimulation> driver;
   std::optional<Simulation> plain;
   if (request.commands) {
-    const RecordedRun& run = *request.commands;
-    DriverSettings settings;
-    settings.epoch = runEpoch(run, request.recordedDt > 0.0 ? request.recordedDt : dt).value_or(run.begin);
-    if (!run.frame.empty()) settings.frame = run.frame;
-    driver = std::make_unique<SimulationDriver>(std::move(built).value(), *scene, settings, run.tf.get());
-    // A command the driver rejects was rejected live as well (the recording holds the applied
-    // stream): skipping it is what the node did.
-    for (const PinCommand& c : run.pins) static_cast<void>(driver->submit(c));
-    for (const ForceCommand& c : run.forces) static_cast<void>(driver->submit(c));
+    driver = request.commands->drive(std::move(built).value(), request.recordedDt > 0.0 ? request.recordedDt : dt);
   } else {
     plain.emplace(std::move(built).value());
   }

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <array>
 #include <map>
 
 #include "fem_cloth/ClothState.h"
@@ -22,6 +23,7 @@ RunTopics::RunTopics(const std::string& node) {
   std::string ns = node.empty() ? "/fem_cloth_node" : node;
   if (ns[0] != '/') ns = "/" + ns;
   if (ns.back() == '/') ns.pop_back();
+  this->ns = ns;
   scene = ns + "/scene";
   mesh = ns + "/mesh";
   state = ns + "/state";
@@ -34,6 +36,9 @@ RunTopics::RunTopics(const std::string& node) {
   appliedPin = ns + "/applied_pin";
   appliedForce = ns + "/applied_force";
 }
+
+std::string RunTopics::sent(CommandTopic topic) const { return ns + "/" + topicName(topic); }
+std::string RunTopics::applied(CommandTopic topic) const { return ns + "/applied_" + topicName(topic); }
 
 namespace {
 
@@ -50,6 +55,47 @@ Status expectType(const rosbag::ConnectionInfo& c) {
                  "): recorded with an incompatible version of fem_cloth"};
   }
   return Status::success();
+}
+
+// Every topic we read has the type we read it as, checked before reading any of them.
+Status checkTypes(rosbag::View& view, const RunTopics& topics) {
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+    Status s;
+    if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
+    if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
+    if (c->topic == topics.state) s = expectType<ClothState>(*c);
+    if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
+    forEachCommandType([&](auto type) {
+      using C = typename decltype(type)::type;
+      const CommandTopic topic = topicOf<C>();
+      if (c->topic == topics.sent(topic) || c->topic == topics.applied(topic)) s = expectType<C>(*c);
+    });
+    if (!s) return s;
+  }
+  return Status::success();
+}
+
+// A command message, sent or applied, into its topic's list (a sent one with a zero stamp is
+// stamped with the time it was recorded: when the node took it); the command added, if any.
+const Command* readCommand(const rosbag::MessageInstance& m, const RunTopics& topics,
+                           std::array<std::vector<Command>, kCommandTopics>* sent,
+                           std::array<std::vector<Command>, kCommandTopics>* applied) {
+  const Command* added = nullptr;
+  forEachCommandType([&](auto type) {
+    using C = typename decltype(type)::type;
+    const CommandTopic topic = topicOf<C>();
+    const std::size_t k = static_cast<std::size_t>(topic);
+    const bool isSent = m.getTopic() == topics.sent(topic);
+    if (!isSent && m.getTopic() != topics.applied(topic)) return;
+    auto msg = m.instantiate<C>();
+    if (!msg) return;
+    C c = *msg;
+    if (isSent && c.header.stamp.isZero()) c.header.stamp = m.getTime();
+    std::vector<Command>& list = (isSent ? *sent : *applied)[k];
+    list.push_back(std::move(c));
+    added = &list.back();
+  });
+  return added;
 }
 
 }  // namespace
@@ -83,14 +129,8 @@ class RunReader {
       if (auto msg = m.instantiate<shape_msgs::Mesh>(); msg && !run_.mesh) run_.mesh = *msg;
     } else if (topic == topics_.state) {
       if (auto msg = m.instantiate<ClothState>()) return addState(*msg, m.getTime(), what);
-    } else if (topic == topics_.appliedPin) {
-      return addCommand(m.instantiate<PinCommand>(), m, what, appliedPins_);
-    } else if (topic == topics_.appliedForce) {
-      return addCommand(m.instantiate<ForceCommand>(), m, what, appliedForces_);
-    } else if (topic == topics_.pin) {
-      return addCommand(m.instantiate<PinCommand>(), m, what, sentPins_);
-    } else if (topic == topics_.force) {
-      return addCommand(m.instantiate<ForceCommand>(), m, what, sentForces_);
+    } else if (const Command* c = readCommand(m, topics_, &sent_, &applied_)) {
+      return checkStamp(headerOf(*c).stamp, run_.begin, what);
     } else if (topic == "/tf" || topic == "/tf_static") {
       if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
         for (const auto& t : msg->transforms) {
@@ -110,10 +150,15 @@ class RunReader {
 
   /// The commands to replay: the applied ones when the bag has them (exact), else those sent.
   void finish() {
-    run_.exactCommands = !appliedPins_.empty() || !appliedForces_.empty() ||
-                         (sentPins_.empty() && sentForces_.empty());
-    run_.pins = run_.exactCommands ? std::move(appliedPins_) : std::move(sentPins_);
-    run_.forces = run_.exactCommands ? std::move(appliedForces_) : std::move(sentForces_);
+    bool anyApplied = false, anySent = false;
+    for (std::size_t k = 0; k < kCommandTopics; ++k) {
+      anyApplied = anyApplied || !applied_[k].empty();
+      anySent = anySent || !sent_[k].empty();
+    }
+    run_.exactCommands = anyApplied || !anySent;
+    for (std::vector<Command>& topic : run_.exactCommands ? applied_ : sent_) {
+      for (Command& c : topic) run_.commands.push_back(std::move(c));
+    }
   }
 
  private:
@@ -133,38 +178,11 @@ class RunReader {
     return Status::success();
   }
 
-  template <class M>
-  Status addCommand(const boost::shared_ptr<M>& msg, const rosbag::MessageInstance& m,
-                    const std::string& what, std::vector<M>& out) {
-    if (!msg) return Status::success();
-    FEM_CLOTH_CHECK(checkStamp(msg->header.stamp, run_.begin, what));
-    out.push_back(*msg);
-    // Sent with a zero stamp ("now"): it took effect after the time it was recorded.
-    if (out.back().header.stamp.isZero()) out.back().header.stamp = m.getTime();
-    return Status::success();
-  }
-
   RecordedRun& run_;
   const RunTopics& topics_;
   std::size_t count_ = 0;
-  std::vector<PinCommand> sentPins_, appliedPins_;
-  std::vector<ForceCommand> sentForces_, appliedForces_;
+  std::array<std::vector<Command>, kCommandTopics> sent_, applied_;
 };
-
-Status checkTypes(rosbag::View& view, const RunTopics& topics) {
-  // Check the types of every topic we read before reading any of them.
-  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
-    Status s;
-    if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
-    if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
-    if (c->topic == topics.state) s = expectType<ClothState>(*c);
-    if (c->topic == topics.pin || c->topic == topics.appliedPin) s = expectType<PinCommand>(*c);
-    if (c->topic == topics.force || c->topic == topics.appliedForce) s = expectType<ForceCommand>(*c);
-    if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
-    if (!s) return s;
-  }
-  return Status::success();
-}
 
 }  // namespace
 
@@ -185,6 +203,18 @@ class QuietConsole {
 };
 
 }  // namespace
+
+Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node) {
+  if (run.sceneYaml.empty()) {
+    return Error{"bag '" + run.path + "' holds no scene (" + RunTopics(node).scene +
+                 "): record with launch/record.launch, or give the scene"};
+  }
+  try {
+    return YAML::Load(run.sceneYaml);
+  } catch (const YAML::Exception& e) {
+    return Error{"the scene stored in bag '" + run.path + "' is not valid YAML: " + e.msg};
+  }
+}
 
 Expected<RecordedRun> readRun(const std::string& path, const std::string& node) {
   const QuietConsole quiet;

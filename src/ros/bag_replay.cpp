@@ -20,20 +20,11 @@ namespace {
 
 Expected<YAML::Node> sceneDocument(const RecordedRun* run, const BagRunOptions& options) {
   if (!options.sceneFile.empty()) return loadSceneDocument(options.sceneFile, options.overrides);
-  if (run == nullptr || run->sceneYaml.empty()) {
-    return Error{run == nullptr
-                     ? "no scene: give --scene"
-                     : "bag '" + run->path + "' holds no scene (" + RunTopics(options.node).scene +
-                           "); record with launch/record.launch or give --scene"};
-  }
-  YAML::Node doc;
-  try {
-    doc = YAML::Load(run->sceneYaml);
-  } catch (const YAML::Exception& e) {
-    return Error{"the scene stored in bag '" + run->path + "' is not valid YAML: " + e.msg};
-  }
+  if (run == nullptr) return Error{"no scene: give --scene"};
+  Expected<YAML::Node> doc = storedScene(*run, options.node);
+  if (!doc) return Error{doc.error() + " (--scene)"};
   for (const std::string& o : options.overrides) {
-    if (Status s = applySceneOverride(doc, o); !s) return Error{s.error()};
+    if (Status s = applySceneOverride(*doc, o); !s) return Error{s.error()};
   }
   return doc;
 }
@@ -123,7 +114,62 @@ Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene
   return duration;
 }
 
+// The commands the step applied, topic after topic, each on its applied_ topic.
+void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& out) {
+  forEachCommandType([&](auto type) {
+    using C = typename decltype(type)::type;
+    for (const C& c : driver.takeApplied<C>()) out.write(topics.applied(topicOf<C>()), c.header.stamp, c);
+  });
+}
+
+// The SimulationDriver fed with a recorded run, as the report steps it.
+class DriverRun : public DrivenSimulation {
+ public:
+  DriverRun(Simulation simulation, const RecordedRun& run, double recordedDt)
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get()) {
+    // A command the driver rejects was rejected live as well (the recording holds the applied
+    // stream): skipping it is what the node did.
+    for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
+  }
+  Simulator& simulator() override { return driver_.simulator(); }
+  StepReport step() override { return driver_.step(); }
+
+ private:
+  static DriverSettings settingsFor(const RecordedRun& run, double dt) {
+    DriverSettings settings;
+    settings.epoch = runEpoch(run, dt).value_or(run.begin);
+    if (!run.frame.empty()) settings.frame = run.frame;
+    return settings;
+  }
+  SimulationDriver driver_;
+};
+
+class BagRecording : public Recording {
+ public:
+  BagRecording(RecordedRun run, std::string node) : run_(std::move(run)), node_(std::move(node)) {}
+  const std::string& path() const override { return run_.path; }
+  Expected<YAML::Node> scene() const override { return storedScene(run_, node_); }
+  double recordedDuration() const override {
+    double recorded = 0.0;
+    for (const RecordedState& s : run_.states) recorded = std::max(recorded, secondsBetween(s.stamp, run_.states.front().stamp));
+    return recorded;
+  }
+  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, double recordedDt) const override {
+    return std::make_unique<DriverRun>(std::move(simulation), run_, recordedDt);
+  }
+
+ private:
+  RecordedRun run_;
+  std::string node_;
+};
+
 }  // namespace
+
+Expected<std::shared_ptr<const Recording>> readRecording(const std::string& path, const std::string& node) {
+  Expected<RecordedRun> run = readRun(path, node);
+  if (!run) return Error{run.error()};
+  return std::shared_ptr<const Recording>(std::make_shared<BagRecording>(std::move(run).value(), node));
+}
 
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options) {
@@ -160,8 +206,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.scene = scene->name;
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
-  SimulationDriver driver(std::move(simulation).value(), *scene, settings,
-                          run ? run->tf.get() : nullptr);
+  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.
@@ -169,22 +214,19 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   double lastCommand = 0.0;
   if (run) {
     report.exactCommands = run->exactCommands;
-    auto submit = [&](const auto& c, std::size_t& count, const char* kind) {
-      ++count;
-      lastCommand = std::max(lastCommand, secondsBetween(c.header.stamp, settings.epoch));
+    for (const Command& c : run->commands) {
+      ++report.commands[static_cast<std::size_t>(topicOf(c))];
+      lastCommand = std::max(lastCommand, secondsBetween(headerOf(c).stamp, settings.epoch));
       if (Status s = driver.submit(c); !s) {
         ++report.rejected;
-        report.warnings.push_back(std::string(kind) + " command rejected (as live): " + s.error());
+        report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
       }
-    };
-    for (const PinCommand& c : run->pins) submit(c, report.pinCommands, "pin");
-    for (const ForceCommand& c : run->forces) submit(c, report.forceCommands, "force");
+    }
     for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
   }
   Expected<double> duration = replayDuration(
       options, *scene, recorded.empty() ? 0.0 : static_cast<double>(recorded.rbegin()->first) * dt,
-      lastCommand, report.pinCommands + report.forceCommands > 0, settings.epoch,
-      run ? run->begin : ros::Time(0));
+      lastCommand, run && !run->commands.empty(), settings.epoch, run ? run->begin : ros::Time(0));
   if (!duration) return Error{duration.error()};
   const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(*duration / dt - 1e-9)));
   const std::uint64_t every =
@@ -202,13 +244,13 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   sceneMsg.data = sceneDocumentToString(*doc);
   const ros::Time origin = driver.stampOf(0.0).isZero() ? ros::Time(1e-9) : driver.stampOf(0.0);
   out.write(topics.scene, origin, sceneMsg);
-  out.write(topics.mesh, origin, driver.meshMessage());
+  out.write(topics.mesh, origin, toMsg(driver.simulator().model().mesh()));
   auto record = [&](const StepReport& r, double wall) {
     const ros::Time t = driver.now().isZero() ? origin : driver.now();
-    const ClothState state = driver.stateMessage();
+    const ClothState state = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), false);
     out.write(topics.state, t, state);
-    out.write(topics.energy, t, driver.energyMessage());
-    out.write(topics.stats, t, driver.statsMessage(r, wall, 0.0));
+    out.write(topics.energy, t, toMsg(driver.header(), driver.stepIndex(), driver.simulator().energies()));
+    out.write(topics.stats, t, statsMessage(driver, r, wall, 0.0));
     auto it = recorded.find(state.step);
     if (it != recorded.end()) {
       ++report.compared;
@@ -232,8 +274,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     }
     const StepReport r = driver.step();
     for (std::string& w : driver.takeWarnings()) report.warnings.push_back(std::move(w));
-    for (PinCommand& c : driver.takeAppliedPins()) out.write(topics.appliedPin, c.header.stamp, c);
-    for (ForceCommand& c : driver.takeAppliedForces()) out.write(topics.appliedForce, c.header.stamp, c);
+    writeApplied(driver, topics, out);
     if (!r.ok) {
       // No bag: the writer removes its temporary file.
       report.failure = "the simulation failed at step " + std::to_string(k + 1) + ": " + r.error;

@@ -153,14 +153,9 @@ bool ClothNode::start(std::string* error) {
   Expected<YAML::Node> doc = Error{""};
   bool sceneKeys = private_.hasParam("scene_file") || private_.hasParam("mesh");
   if (replay && !sceneKeys) {
-    if (replay->sceneYaml.empty()) {
-      *error = "~replay_bag: " + replayBag_ + " holds no scene; give ~scene_file";
-      return false;
-    }
-    try {
-      doc = YAML::Load(replay->sceneYaml);
-    } catch (const YAML::Exception& e) {
-      *error = "~replay_bag: the stored scene is not valid YAML: " + e.msg;
+    doc = storedScene(*replay, ros::this_node::getName());
+    if (!doc) {
+      *error = "~replay_bag: " + doc.error() + " (~scene_file)";
       return false;
     }
     sourcePath = replayBag_;
@@ -197,12 +192,10 @@ bool ClothNode::start(std::string* error) {
   DriverSettings settings;
   settings.frame = frame_;
   settings.tfTimeout = tfTimeout_;
-  settings.publishVelocities = publishVelocities_;
   settings.maxPinJump = maxPinJump_;
   settings.maxPendingCommands = static_cast<std::size_t>(maxPendingCommands_);
   const double dt = scene->dt;
-  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), *scene, settings,
-                                               &tfBuffer_);
+  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), settings, &tfBuffer_);
   publishEvery_ = everyFor(publishRate_, dt);
   markerEvery_ = everyFor(markerRate_, dt);
   control_ = std::make_unique<RunControl>(startPaused_, dt);
@@ -220,7 +213,7 @@ bool ClothNode::start(std::string* error) {
   perception.clothFrames = replayBag_.empty();
   if (!readPerceptionParameters(private_, perception, error)) return false;
   Expected<std::unique_ptr<PerceptionOutputs>> outputs =
-      PerceptionOutputs::create(private_, *driver_, tfBuffer_, std::move(perception));
+      PerceptionOutputs::create(private_, *driver_, *scene, tfBuffer_, std::move(perception));
   if (!outputs) {
     *error = outputs.error();
     return false;
@@ -267,11 +260,16 @@ void ClothNode::advertise() {
   scenePub_ = private_.advertise<std_msgs::String>("scene", 1, true);
   // Every applied command goes out (a recording replays exactly these), also in the burst after a
   // slow step: as many as may be pending.
-  appliedPinPub_ = private_.advertise<PinCommand>("applied_pin", maxPendingCommands_);
-  appliedForcePub_ = private_.advertise<ForceCommand>("applied_force", maxPendingCommands_);
+  // Each command topic (command_queue.h): its subscriber only hands the command to the inbox.
+  forEachCommandType([this](auto type) {
+    using C = typename decltype(type)::type;
+    const std::string name = CommandTraits<C>::name;
+    appliedPubs_.push_back(private_.advertise<C>("applied_" + name, maxPendingCommands_));
+    commandSubs_.push_back(private_.subscribe<C>(
+        name, commandQueueSize_,
+        boost::function<void(const typename C::ConstPtr&)>([this](const typename C::ConstPtr& m) { inbox_->push(*m); })));
+  });
   if (timeMode_ == TimeMode::Fast) clockPub_ = node_.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  pinSub_ = private_.subscribe("pin", commandQueueSize_, &ClothNode::onPin, this);
-  forceSub_ = private_.subscribe("force", commandQueueSize_, &ClothNode::onForce, this);
   pauseSrv_ = private_.advertiseService("pause", &ClothNode::onPause, this);
   resumeSrv_ = private_.advertiseService("resume", &ClothNode::onResume, this);
   stepSrv_ = private_.advertiseService("step", &ClothNode::onStep, this);
@@ -282,10 +280,6 @@ void ClothNode::advertise() {
 }
 
 // --- Callbacks (roscpp's spinner threads): they never touch the simulation ----------------------
-
-void ClothNode::onPin(const PinCommand::ConstPtr& msg) { inbox_->push(*msg); }
-
-void ClothNode::onForce(const ForceCommand::ConstPtr& msg) { inbox_->push(*msg); }
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   res.success = control_->reset();
@@ -327,10 +321,10 @@ bool ClothNode::onAdvance(Advance::Request& req, Advance::Response& res) {
 
 void ClothNode::takeCommands() {
   for (const Command& c : inbox_->take()) {
-    const Status s = std::visit([this](const auto& command) { return driver_->submit(command); }, c);
+    const Status s = driver_->submit(c);
     if (!s) reject(topicOf(c), s.error());
   }
-  for (CommandTopic topic : {CommandTopic::Pin, CommandTopic::Force}) {
+  for (CommandTopic topic : commandTopics()) {
     const std::uint64_t refused = inbox_->tally(topic).refused;
     std::uint64_t& told = inboxRefusalsTold_[static_cast<std::size_t>(topic)];
     if (refused == told) continue;
@@ -440,8 +434,9 @@ void ClothNode::stepOnce() {
   const StepReport& report = lastReport_;
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
   // The commands as they took effect, stamped with their step: what a recording replays.
-  for (const PinCommand& c : driver_->takeAppliedPins()) appliedPinPub_.publish(c);
-  for (const ForceCommand& c : driver_->takeAppliedForces()) appliedForcePub_.publish(c);
+  for (const Command& c : driver_->takeApplied()) {
+    std::visit([this, &c](const auto& command) { appliedPubs_[c.index()].publish(command); }, c);
+  }
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
     diagnosticsSoon_ = true;
@@ -483,32 +478,42 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
   const bool stateDue = force || step % publishEvery_ == 0;
   const bool markerDue = force || step % markerEvery_ == 0;
   if (stateDue) {
-    statePub_.publish(driver_->stateMessage());
-    if (wanted(energyPub_)) energyPub_.publish(driver_->energyMessage());
+    const Simulator& sim = driver_->simulator();
+    statePub_.publish(toMsg(driver_->header(), sim.state(), sim.dim(), publishVelocities_));
+    if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
-      StepStats stats = driver_->statsMessage(report, wallTime, realTimeFactorMeasured_);
+      StepStats stats = statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_);
       stats.pin_commands = toMsg(commandCounts(CommandTopic::Pin));
       stats.force_commands = toMsg(commandCounts(CommandTopic::Force));
       statsPub_.publish(stats);
     }
-    if (wanted(pinForcesPub_)) pinForcesPub_.publish(driver_->pinForcesMessage());
-    if (wanted(pinWrenchPub_)) {
-      for (const auto& w : driver_->pinWrenchMessages()) pinWrenchPub_.publish(w);
-    }
+    publishPinReactions();
     bool wrenchWanted = false;
     for (const ros::Publisher& pub : obstacleWrenchPubs_) wrenchWanted = wrenchWanted || wanted(pub);
     if (wrenchWanted) {
-      const std::vector<geometry_msgs::WrenchStamped> wrenches = driver_->obstacleWrenchMessages();
+      const std::vector<geometry_msgs::WrenchStamped> wrenches = obstacleWrenches(driver_->header(), *sim.contact());
       for (std::size_t k = 0; k < wrenches.size() && k < obstacleWrenchPubs_.size(); ++k) {
         obstacleWrenchPubs_[k].publish(wrenches[k]);
       }
     }
   }
   if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
-    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+    obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));
   }
   perception_->publish(stateDue, markerDue);
   publishDiagnostics(false);
+}
+
+void ClothNode::publishPinReactions() {
+  const bool forces = wanted(pinForcesPub_), wrenches = wanted(pinWrenchPub_);
+  if (!forces && !wrenches) return;
+  // One copy of the reactions for both messages.
+  const Simulator& sim = driver_->simulator();
+  const VectorX reactions = sim.pinReactions();
+  if (forces) pinForcesPub_.publish(toMsg(driver_->header(), sim.pinnedVertices(), reactions, sim.dim()));
+  if (wrenches) {
+    for (const GraspWrench& w : driver_->graspWrenches(reactions)) pinWrenchPub_.publish(toMsg(driver_->header(), w));
+  }
 }
 
 void ClothNode::publishDiagnostics(bool force) {
@@ -533,7 +538,7 @@ void ClothNode::publishDiagnostics(bool force) {
   add("step", std::to_string(driver_->stepIndex()));
   add("real-time factor", std::to_string(realTimeFactorMeasured_));
   std::uint64_t rejected = 0;
-  for (CommandTopic topic : {CommandTopic::Pin, CommandTopic::Force}) {
+  for (CommandTopic topic : commandTopics()) {
     const CommandCounts c = commandCounts(topic);
     const std::string name = std::string("~") + topicName(topic) + " commands ";
     add(name + "received", std::to_string(c.received));
@@ -564,9 +569,9 @@ void ClothNode::begin() {
   driver_->setEpoch(epoch);
   dueOrigin_ = (hasStartTime_ && timeMode_ == TimeMode::RealTime ? epoch : now).toSec();
   rtfWindowStart_ = ros::WallTime::now();
-  meshPub_.publish(driver_->meshMessage());
+  meshPub_.publish(toMsg(driver_->simulator().model().mesh()));
   // Latched: RViz started later, or a paused node, still shows where the obstacles are.
-  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));
   std_msgs::String sceneMsg;
   sceneMsg.data = sceneText_;
   scenePub_.publish(sceneMsg);

@@ -216,7 +216,11 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   std::cout << std::setprecision(4);
   std::cout << "scene:        " << r.scene << ", " << r.integrator << '\n';
   if (!opt.commands.empty()) {
-    std::cout << "commands:     " << r.pinCommands << " pin, " << r.forceCommands << " force from "
+    std::cout << "commands:     ";
+    for (fem_cloth::CommandTopic topic : fem_cloth::commandTopics()) {
+      std::cout << r.commands[static_cast<std::size_t>(topic)] << ' ' << fem_cloth::topicName(topic) << ", ";
+    }
+    std::cout << "from "
               << opt.commands << " ("
               << (r.exactCommands ? "as applied by the node: exact steps"
                                   : "as sent: applied at the step after they were recorded")

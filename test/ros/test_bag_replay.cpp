@@ -84,7 +84,7 @@ SimulationDriver makeDriver(const tf2::BufferCore* tf) {
   const Scene scene = *parseScene(YAML::Load(kScene));
   DriverSettings settings;
   settings.epoch = kEpoch;
-  return SimulationDriver(std::move(buildSimulation(scene).value()), scene, settings, tf);
+  return SimulationDriver(std::move(buildSimulation(scene).value()), settings, tf);
 }
 
 struct Recorded {
@@ -106,7 +106,7 @@ Recorded recordRun(const std::string& path, int steps, bool appliedTopics = true
   std_msgs::String scene;
   scene.data = kScene;
   bag.write(kTopics.scene, kEpoch, scene);
-  bag.write(kTopics.mesh, kEpoch, driver.meshMessage());
+  bag.write(kTopics.mesh, kEpoch, toMsg(driver.simulator().model().mesh()));
   for (int k = 0; k <= 130; ++k) {
     tf2_msgs::TFMessage m;
     m.transforms.push_back(gripperAt(0.01 * k));
@@ -126,7 +126,7 @@ Recorded recordRun(const std::string& path, int steps, bool appliedTopics = true
   }
   Recorded rec;
   auto record = [&]() {
-    const ClothState s = driver.stateMessage();
+    const ClothState s = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), false);
     rec.hashes[s.step] = s.state_hash;
     bag.write(kTopics.state, s.header.stamp, s);
   };
@@ -181,8 +181,8 @@ TEST(BagReplay, OfflineReplayReproducesTheRecordedRun) {
   Expected<BagRunReport> r = runToBag(dir.path("run.bag"), dir.path("replay.bag"), quiet());
   ASSERT_TRUE(r.ok()) << r.error();
   EXPECT_TRUE(r->exactCommands);
-  EXPECT_EQ(r->pinCommands, 2u);
-  EXPECT_EQ(r->forceCommands, 1u);
+  EXPECT_EQ(r->commands[static_cast<std::size_t>(CommandTopic::Pin)], 2u);
+  EXPECT_EQ(r->commands[static_cast<std::size_t>(CommandTopic::Force)], 1u);
   EXPECT_EQ(r->rejected, 0u);
   // 99 steps, a state every 3: steps 0, 3, ..., 99.
   EXPECT_EQ(r->steps, 99u);

@@ -3,25 +3,25 @@
 //
 // A recording (launch/record.launch) holds, for a node named NS:
 //   NS/scene          std_msgs/String (latched)  the scene YAML the node ran
-//   NS/applied_pin    fem_cloth/PinCommand       commands as applied, stamped with the step's time
-//   NS/applied_force  fem_cloth/ForceCommand
-//   NS/pin, NS/force  the commands as sent (used when the applied ones are missing)
+//   NS/applied_<t>    the commands of each command topic t (command_queue.h: pin, force, ...)
+//                     as applied, stamped with the step's time
+//   NS/<t>            the commands as sent (used when the applied ones are missing)
 //   NS/mesh, NS/state, NS/energy, NS/stats, NS/pin_forces, NS/pin_wrench, /tf, /tf_static
 #pragma once
 
 #include <rosbag/bag.h>
 #include <shape_msgs/Mesh.h>
 #include <tf2/buffer_core.h>
+#include <yaml-cpp/yaml.h>
 
 #include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "fem_cloth/ForceCommand.h"
-#include "fem_cloth/PinCommand.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/mesh.h"
+#include "fem_cloth/ros/command_queue.h"
 
 namespace fem_cloth {
 
@@ -32,8 +32,12 @@ constexpr double kMaxRecordingSpan = 1e9;
 /// The topic names of a node's run.
 struct RunTopics {
   explicit RunTopics(const std::string& node = "/fem_cloth_node");
+  std::string ns;  ///< the node's name, with a leading '/'
   std::string scene, mesh, state, energy, stats, pinForces, pinWrench, pin, force, appliedPin,
       appliedForce;
+  /// A command topic as sent (NS/pin) and as applied (NS/applied_pin).
+  std::string sent(CommandTopic topic) const;
+  std::string applied(CommandTopic topic) const;
 };
 
 struct RecordedState {
@@ -49,10 +53,10 @@ struct RecordedRun {
   std::string frame;      ///< the simulation frame of the recorded states (empty if none)
   std::optional<shape_msgs::Mesh> mesh;
   std::vector<RecordedState> states;
-  /// The commands to replay: the applied ones when the bag has them (exact), else the ones sent,
-  /// a zero stamp replaced by the time the message was recorded.
-  std::vector<PinCommand> pins;
-  std::vector<ForceCommand> forces;
+  /// The commands to replay, topic after topic (Command's order), each topic's in bag order: the
+  /// applied ones when the bag has them (exact), else the ones sent, a zero stamp replaced by
+  /// the time the message was recorded.
+  std::vector<Command> commands;
   bool exactCommands = false;  ///< the commands came from applied_pin / applied_force
   std::shared_ptr<tf2::BufferCore> tf;  ///< every /tf and /tf_static message of the bag
   std::vector<std::string> warnings;     ///< what was left out (transforms tf refused)
@@ -64,6 +68,10 @@ struct RecordedRun {
 /// kMaxRecordingSpan from the start of the recording, a reset of the node (the states' step
 /// going back), which no replay can reproduce.
 Expected<RecordedRun> readRun(const std::string& path, const std::string& node = "/fem_cloth_node");
+
+/// The scene document a run holds (the one way to read it: the node's ~replay_bag, fem_cloth_sim
+/// --commands and the report). The error names the bag and says what to do instead.
+Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node = "/fem_cloth_node");
 
 /// The ROS time of simulation time 0 of a recorded run (from its states and the step size); none
 /// without states, or when the first state's step x dt does not fit before its stamp.

@@ -73,8 +73,6 @@ class ClothNode {
   bool readParameters(std::string* error);
   bool readLimits(std::string* error);
   void advertise();
-  void onPin(const PinCommand::ConstPtr& msg);
-  void onForce(const ForceCommand::ConstPtr& msg);
   bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
@@ -104,6 +102,8 @@ class ClothNode {
   /// /clock at the simulation time (fast mode only).
   void publishClock();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
+  /// ~pin_forces and ~pin_wrench, from one copy of the pin reactions.
+  void publishPinReactions();
   /// At least once a second; within 0.1 s after a problem (at most 10 per second).
   void publishDiagnostics(bool force);
   CommandCounts commandCounts(CommandTopic topic) const;
@@ -157,9 +157,10 @@ class ClothNode {
   ros::WallTime lastDiagnostics_;
   bool diagnosticsSoon_ = false;
 
-  ros::Subscriber pinSub_, forceSub_;
+  std::vector<ros::Subscriber> commandSubs_;  // one per command topic (Command's order)
+  std::vector<ros::Publisher> appliedPubs_;   // ~applied_<topic>, likewise
   ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, pinForcesPub_,
-      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_,
+      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_,
       obstacleMarkerPub_;
   std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order
   std::string sceneText_;
