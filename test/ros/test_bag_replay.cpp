@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../run_program.h"
 #include "../temp_dir.h"
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/io/scene_yaml.h"
@@ -157,8 +158,13 @@ std::map<std::uint64_t, std::string> statesOf(const std::string& path) {
   return out;
 }
 
+// Neither the output nor a temporary file of it (out.partial-XXXXXX) in its folder.
 bool leftNothing(const std::string& out) {
-  return !fs::exists(out) && !fs::exists(out + ".partial");
+  const fs::path path(out);
+  for (const auto& e : fs::directory_iterator(path.parent_path())) {
+    if (e.path().filename().string().rfind(path.filename().string(), 0) == 0) return false;
+  }
+  return true;
 }
 
 BagRunOptions quiet() {
@@ -317,4 +323,41 @@ TEST(BagReplay, ASceneAloneRunsIntoABag) {
   const auto states = statesOf(dir.path("scene.bag"));
   EXPECT_EQ(states.size(), 18u);
   EXPECT_EQ(states.rbegin()->first, 50u);
+}
+
+// A simulation that fails is not bad input: runToBag reports it (failure, the steps taken), and
+// writes no bag (fem_cloth_sim exits 3, not 2, from this rather than from the error's text).
+TEST(BagReplay, ASimulationThatFailsIsAReportAndLeavesNoBag) {
+  test::TempDir dir("fem_cloth_bag_replay");
+  recordRun(dir.path("run.bag"), 30);
+  BagRunOptions o = quiet();
+  // Symplectic Euler told not to substep, far beyond its stability bound.
+  o.overrides = {"integrator.auto_substep=false", "integrator.dt=1"};
+  o.duration = 3.0;
+  Expected<BagRunReport> r = runToBag(dir.path("run.bag"), dir.path("out.bag"), o);
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_NE(r->failure.find("the simulation failed at step 1"), std::string::npos) << r->failure;
+  EXPECT_NE(r->failure.find("CFL bound"), std::string::npos) << r->failure;
+  EXPECT_EQ(r->steps, 0u);
+  EXPECT_TRUE(leftNothing(dir.path("out.bag")));
+  // A run that succeeds has no failure.
+  Expected<BagRunReport> ok = runToBag(dir.path("run.bag"), dir.path("ok.bag"), quiet());
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  EXPECT_TRUE(ok->failure.empty());
+}
+
+// The output is never one of the inputs: the recording stays as it was.
+TEST(BagReplay, TheOutputIsNeverTheInput) {
+  test::TempDir dir("fem_cloth_bag_replay");
+  const Recorded rec = recordRun(dir.path("run.bag"), 30);
+  Expected<BagRunReport> r = runToBag(dir.path("run.bag"), dir.path("run.bag"), quiet());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("is the input"), std::string::npos) << r.error();
+  EXPECT_EQ(statesOf(dir.path("run.bag")), rec.hashes);
+  BagRunOptions o = quiet();
+  o.sceneFile = dir.write("scene.bag", kScene);
+  r = runToBag(dir.path("run.bag"), o.sceneFile, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("scene.bag"), std::string::npos) << r.error();
+  EXPECT_EQ(test::readTextFile(o.sceneFile), kScene);
 }
