@@ -64,8 +64,8 @@ void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& 
 // The SimulationDriver fed with a recorded run, as the report steps it.
 class DriverRun : public DrivenSimulation {
  public:
-  DriverRun(Simulation simulation, const RecordedRun& run, double recordedDt)
-      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get()) {
+  DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
     // A command the driver rejects was rejected live as well (the recording holds the applied
     // stream): skipping it is what the node did.
     for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
@@ -93,8 +93,9 @@ class BagRecording : public Recording {
     for (const RecordedState& s : run_.states) recorded = std::max(recorded, (s.stamp - run_.states.front().stamp).toSec());
     return recorded;
   }
-  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, double recordedDt) const override {
-    return std::make_unique<DriverRun>(std::move(simulation), run_, recordedDt);
+  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, const YAML::Node& document,
+                                          double recordedDt) const override {
+    return std::make_unique<DriverRun>(std::move(simulation), document, run_, recordedDt);
   }
 
  private:
@@ -109,6 +110,19 @@ Expected<std::shared_ptr<const Recording>> readRecording(const std::string& path
   if (!run) return Error{run.error()};
   return std::shared_ptr<const Recording>(std::make_shared<BagRecording>(std::move(run).value(), node));
 }
+
+namespace {
+
+// How long a bag run simulates: as asked, else up to the last recorded state, else a second past
+// the last command, else the scene's duration.
+double runDuration(double asked, const std::map<std::uint64_t, std::string>& recorded, bool commands,
+                   double lastCommand, double dt, double sceneDuration) {
+  if (asked > 0.0) return asked;
+  if (!recorded.empty()) return static_cast<double>(recorded.rbegin()->first) * dt;
+  return commands ? lastCommand + 1.0 : sceneDuration;
+}
+
+}  // namespace
 
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options) {
@@ -140,7 +154,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
-  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr);
+  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.
@@ -158,16 +172,8 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     }
     for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
   }
-  double duration = options.duration;
-  if (!(duration > 0.0)) {
-    if (!recorded.empty()) {
-      duration = static_cast<double>(recorded.rbegin()->first) * dt;
-    } else if (!run->commands.empty()) {
-      duration = lastCommand + 1.0;
-    } else {
-      duration = scene->duration;
-    }
-  }
+  const double duration = runDuration(options.duration, recorded, run && !run->commands.empty(), lastCommand,
+                                      dt, scene->duration);
   const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(duration / dt - 1e-9)));
   const std::uint64_t every =
       options.every > 0 ? static_cast<std::uint64_t>(options.every)
