@@ -204,6 +204,7 @@ Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {
 
 Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
   std::unique_ptr<RunWriter> writer(new RunWriter(path));
+  if (path.empty()) return writer;
   try {
     writer->bag_.open(path + ".partial", rosbag::bagmode::Write);
   } catch (const rosbag::BagException& e) {
@@ -213,7 +214,7 @@ Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
 }
 
 RunWriter::~RunWriter() {
-  if (!closed_) {
+  if (!closed_ && !path_.empty()) {
     try {
       bag_.close();
     } catch (const rosbag::BagException&) {
@@ -223,6 +224,7 @@ RunWriter::~RunWriter() {
 }
 
 Status RunWriter::close() {
+  if (path_.empty()) return Status::success();
   try {
     bag_.close();
   } catch (const rosbag::BagException& e) {

@@ -2,7 +2,7 @@
 //
 //   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
 //                 [--duration S] [--set key=value]... [--out DIR | --out FILE.bag] [--every N]
-//   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
+//   fem_cloth_sim --commands recorded.bag [--out replay.bag] [--scene S] [--verify]
 //   fem_cloth_sim --scene S [--set key=value]... --check [--write-scene FILE]
 //
 // --summary-json FILE also writes the summary for programs (fem_cloth_batch's index).
@@ -231,7 +231,7 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
             << ", bending " << r.energy.bending << ", gravity " << r.energy.gravity << ", total "
             << r.energy.total << ", balance error " << r.energy.balanceError << '\n';
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
-  std::cout << "output:       " << opt.out << '\n';
+  std::cout << "output:       " << (opt.out.empty() ? "none (no --out)" : opt.out) << '\n';
   const Json summary{{"status", "ok"},
                      {"scene", r.scene},
                      {"integrator", r.integrator},
@@ -241,7 +241,7 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
                      {"energy", energyJson(r.energy)},
                      {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
                      {"state_hash", r.finalHash},
-                     {"outputs", {opt.out}}};
+                     {"outputs", opt.out.empty() ? Json::array() : Json::array({opt.out})}};
   if (!writeSummaryJson(opt.summaryJson, summary)) return 2;
   if (opt.verify && r.identical < r.compared) {
     std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
@@ -277,7 +277,7 @@ int main(int argc, char** argv) {
                  "ending in .bag to write a bag (~scene, ~mesh, ~state, ~energy, ~stats)");
   app.add_option("--commands", opt.commands,
                  "re-simulate a recorded run: apply its commands (applied_pin/applied_force, "
-                 "else pin/force) at their stamps, follow its /tf; needs --out FILE.bag");
+                 "else pin/force) at their stamps, follow its /tf; writes --out FILE.bag if given");
   app.add_option("--node", opt.node, "the node whose topics the bags hold (/fem_cloth_node)");
   app.add_flag("--verify", opt.verify,
                "with --commands: exit 4 unless every recorded state is reproduced bit for bit");
@@ -328,8 +328,9 @@ int main(int argc, char** argv) {
   }
   const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
   if (!opt.commands.empty() || bagOut) {
-    if (!bagOut) {
-      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag\n";
+    // Without --out a re-simulation only compares and summarises (--verify): no bag written.
+    if (!bagOut && !opt.out.empty()) {
+      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag (or no --out)\n";
       return 2;
     }
     return runBag(opt, overrides);
