@@ -377,8 +377,14 @@ CommandCounts ClothNode::commandCounts(CommandTopic topic) const {
   return combinedCounts(inbox_->tally(topic), driver_->commandCounts(topic));
 }
 
+void ClothNode::restartRealTimeFactorWindow() {
+  rtfWindowStart_ = ros::WallTime::now();
+  rtfWindowSimStart_ = driver_->simulator().time();
+}
+
 void ClothNode::doReset() {
   driver_->reset();
+  restartRealTimeFactorWindow();  // a window across the reset measured a negative factor
   tfWait_->clear();
   dueOrigin_ = ros::Time::now().toSec();
   if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) driver_->setEpoch(ros::Time::now());
@@ -391,6 +397,7 @@ void ClothNode::restartRealTime() {
   // Real time restarts from here: the pause is not made up for. A recorder that subscribed
   // while we were paused gets the current state first.
   dueOrigin_ = ros::Time::now().toSec() - driver_->simulator().time() / realTimeFactor_;
+  restartRealTimeFactorWindow();  // a window across the pause measured the pause as slowness
   if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
     driver_->setEpoch(ros::Time::now());
   }
@@ -458,8 +465,7 @@ void ClothNode::stepOnce() {
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
   if (window >= 1.0) {
     realTimeFactorMeasured_ = (driver_->simulator().time() - rtfWindowSimStart_) / window;
-    rtfWindowStart_ = ros::WallTime::now();
-    rtfWindowSimStart_ = driver_->simulator().time();
+    restartRealTimeFactorWindow();
     if (timeMode_ == TimeMode::RealTime && !control_->paused() &&
         realTimeFactorMeasured_ < 0.9 * realTimeFactor_) {
       ROS_WARN_STREAM_THROTTLE(5.0, "fem_cloth_node: cannot keep up with real time: real-time factor "
@@ -616,7 +622,7 @@ void ClothNode::begin() {
       hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : now);
   driver_->setEpoch(epoch);
   dueOrigin_ = (hasStartTime_ && timeMode_ == TimeMode::RealTime ? epoch : now).toSec();
-  rtfWindowStart_ = ros::WallTime::now();
+  restartRealTimeFactorWindow();
   meshPub_.publish(toMsg(driver_->simulator().model().mesh()));
   // Latched: RViz started later, or a paused node, still shows where the obstacles are.
   if (obstacleMarkerPub_) obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));

@@ -103,6 +103,8 @@ class ClothNode {
   void stepOnce();
   /// /clock at the simulation time (fast mode only).
   void publishClock();
+  /// The real-time factor is measured from here (start, reset, resume, each ~1 s window).
+  void restartRealTimeFactorWindow();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
   /// ~pin_forces, ~pin_wrench and ~grasp/<frame>/wrench, from one copy of the pin reactions.
   void publishPinReactions();
