@@ -89,7 +89,16 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(nonNegativeFinite(s.bendingStiffness, "bending.stiffness", "N m"));
   if (std::find(bendingModelNames().begin(), bendingModelNames().end(), s.bendingModel) ==
       bendingModelNames().end()) {
-    return Error{"bending.model must be quadratic or dihedral, got '" + s.bendingModel + "'"};
+    return Error{"bending.model must be midedge, quadratic or dihedral, got '" + s.bendingModel + "'"};
+  }
+  if (!(s.bendingPoissonRatio >= 0.0 && s.bendingPoissonRatio < 0.5)) {
+    return Error{"bending.poisson_ratio must be in [0, 0.5), got " + numberText(s.bendingPoissonRatio)};
+  }
+  if (s.integrator == "xpbd" && s.bendingStiffness > 0.0 && s.bendingModel == "midedge") {
+    // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge element
+    // reads 12 vertices. Said when the scene is loaded rather than at the first step.
+    return Error{"bending.model: xpbd needs a bending model with a constraint form, quadratic or "
+                 "dihedral, got 'midedge' (the default; set bending.model)"};
   }
   FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.massProportional, "damping.mass", "1/s"));
   FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.stiffnessProportional, "damping.stiffness", "s"));
@@ -113,7 +122,7 @@ Status validateScene(const Scene& s) {
     }
     if (s.bendingStiffness > 0.0 && s.bendingModel != "quadratic") {
       return Error{"bending.model: projective_dynamics needs the quadratic bending model, got '" +
-                   s.bendingModel + "'"};
+                   s.bendingModel + "'" + (s.bendingModel == "midedge" ? " (the default; set bending.model: quadratic)" : "")};
     }
     if (s.damping.stiffnessProportional > 0.0) {
       return Error{"damping.stiffness: projective_dynamics has no stiffness damping; set it to 0 "
@@ -322,6 +331,18 @@ Status SceneScript::applyDue(Simulator& sim) {
   return Status::success();
 }
 
+Expected<std::vector<char>> heldVertices(const Scene& scene, Index numVertices) {
+  std::vector<char> held(static_cast<std::size_t>(numVertices), 0);
+  for (std::size_t i = 0; i < scene.pins.size(); ++i) {
+    if (std::isfinite(scene.pins[i].releaseAt)) continue;
+    Expected<std::vector<Index>> verts =
+        resolveSelection(scene.pins[i].select, scene, numVertices, "pins[" + std::to_string(i) + "]");
+    if (!verts) return Error{verts.error()};
+    for (Index v : *verts) held[static_cast<std::size_t>(v)] = 1;
+  }
+  return held;
+}
+
 Expected<std::vector<Index>> resolveSelection(const VertexSelection& sel, const Scene& scene,
                                               Index numVertices, const std::string& key) {
   std::vector<Index> out;
@@ -430,8 +451,16 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   // Zero stiffness declares no bending term at all, so planar meshes (which cannot bend) build;
   // a planar mesh with a non-zero stiffness is an error naming the key.
   if (scene.bendingStiffness > 0.0) {
-    Expected<std::unique_ptr<EnergyTerm>> bending =
-        makeBendingTerm(*mesh, *rest, scene.bendingModel, scene.bendingStiffness);
+    BendingSpec spec;
+    spec.model = scene.bendingModel;
+    spec.stiffness = scene.bendingStiffness;
+    spec.poissonRatio = scene.bendingPoissonRatio;
+    if (spec.model == "midedge") {
+      Expected<std::vector<char>> held = heldVertices(scene, mesh->numVertices());
+      if (!held) return Error{held.error()};
+      spec.held = std::move(held).value();
+    }
+    Expected<std::unique_ptr<EnergyTerm>> bending = makeBendingTerm(*mesh, *rest, spec);
     if (!bending) return Error{"bending.stiffness: " + bending.error()};
     sim.model->addTerm(std::move(bending).value(), TermKind::Bending);
   }

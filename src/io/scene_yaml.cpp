@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <cstdlib>
 #include <functional>
 #include <fstream>
 #include <map>
@@ -377,9 +379,70 @@ Status readContact(const YAML::Node& node, Scene& s) {
   return Status::success();
 }
 
+/// material.preset: merges a fabric preset (config/materials/<name>.yaml, or the folder
+/// $FEM_CLOTH_MATERIALS_DIR; a value with '/' or ending in .yaml is a file relative to the scene)
+/// under the scene's own keys: its material keys where the scene has none (not its E and nu
+/// when the scene gives mu or lambda), its bending stiffness and Poisson ratio likewise.
+Expected<YAML::Node> withMaterialPreset(const YAML::Node& document, const std::string& sourcePath) {
+  if (!document.IsMap() || !document["material"].IsMap() || !document["material"]["preset"].IsDefined()) {
+    return document;
+  }
+  const YAML::Node name = document["material"]["preset"];
+  if (!name.IsScalar()) return Error{"material.preset must be a preset name or file, got " + describe(name)};
+  const std::string value = name.Scalar();
+  const bool isFile = value.find('/') != std::string::npos ||
+                      (value.size() > 5 && value.compare(value.size() - 5, 5, ".yaml") == 0);
+  const char* env = std::getenv("FEM_CLOTH_MATERIALS_DIR");
+  const std::filesystem::path folder = env != nullptr && *env != '\0' ? env : FEM_CLOTH_MATERIALS_DIR;
+  const std::filesystem::path path =
+      isFile ? std::filesystem::path(sourcePath).parent_path() / value : folder / (value + ".yaml");
+  YAML::Node preset;
+  try {
+    preset = YAML::LoadFile(path.string());
+  } catch (const YAML::BadFile&) {
+    std::vector<std::string> known;
+    std::error_code ec;
+    for (const auto& f : std::filesystem::directory_iterator(folder, ec)) {
+      if (f.path().extension() == ".yaml") known.push_back(f.path().stem().string());
+    }
+    std::sort(known.begin(), known.end());
+    return Error{"material.preset: no preset '" + value + "' (" + path.string() + "; known: " + joinKeys(known) + ")"};
+  } catch (const YAML::Exception& e) {
+    return Error{"material.preset '" + value + "': malformed YAML in " + path.string() + ": " + e.msg};
+  }
+  const std::string where = "material.preset '" + value + "' (" + path.string() + ")";
+  MapReader top(preset, where, {"material", "bending"});
+  MapReader material(top.child("material"), where + ": material",
+                     {"model", "youngs_modulus", "poisson_ratio", "mu", "lambda", "thickness", "density"});
+  MapReader bending(top.child("bending"), where + ": bending", {"stiffness", "poisson_ratio"});
+  for (const MapReader* r : {&top, &material, &bending}) FEM_CLOTH_TRY(r->check());
+  YAML::Node out = YAML::Clone(document);
+  YAML::Node mine = out["material"];
+  mine.remove("preset");
+  const bool lame = mine["mu"].IsDefined() || mine["lambda"].IsDefined();
+  for (const auto& kv : top.child("material")) {
+    const std::string key = kv.first.as<std::string>();
+    if (lame && (key == "youngs_modulus" || key == "poisson_ratio")) continue;
+    if (!mine[key].IsDefined()) mine[key] = kv.second;
+  }
+  if (top.has("bending")) {
+    if (!out["bending"].IsDefined() || out["bending"].IsNull()) out["bending"] = YAML::Node(YAML::NodeType::Map);
+    YAML::Node bend = out["bending"];
+    if (!bend.IsMap()) return document;  // parseScene reports the ill-typed bending key
+    for (const auto& kv : top.child("bending")) {
+      const std::string key = kv.first.as<std::string>();
+      if (!bend[key].IsDefined()) bend[key] = kv.second;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
-Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath) {
+Expected<Scene> parseScene(const YAML::Node& document, const std::string& sourcePath) {
+  Expected<YAML::Node> expanded = withMaterialPreset(document, sourcePath);
+  if (!expanded) return Error{expanded.error()};
+  const YAML::Node& doc = *expanded;
   Scene s;
   s.sourcePath = sourcePath;
   MapReader root(doc, "",
@@ -402,10 +465,11 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
   FEM_CLOTH_TRY(mat.number("thickness", s.thickness));
   FEM_CLOTH_TRY(mat.number("density", s.density));
 
-  MapReader bend(root.child("bending"), "bending", {"model", "stiffness"});
+  MapReader bend(root.child("bending"), "bending", {"model", "stiffness", "poisson_ratio"});
   FEM_CLOTH_TRY(bend.check());
   FEM_CLOTH_TRY(bend.text("model", s.bendingModel));
   FEM_CLOTH_TRY(bend.number("stiffness", s.bendingStiffness));
+  FEM_CLOTH_TRY(bend.number("poisson_ratio", s.bendingPoissonRatio));
 
   MapReader damp(root.child("damping"), "damping", {"mass", "stiffness"});
   FEM_CLOTH_TRY(damp.check());

@@ -104,8 +104,9 @@ struct Scene {
   double density = 2000.0;       ///< kg/m^3; areal density = density x thickness
 
   // bending
-  std::string bendingModel = "quadratic";
-  double bendingStiffness = 0.0;  ///< N m; 0: no bending term at all
+  std::string bendingModel = "midedge";
+  double bendingStiffness = 0.0;     ///< N m; 0: no bending term at all
+  double bendingPoissonRatio = 0.0;  ///< midedge: nu_b (docs/bending.md: why 0 for woven cloth)
 
   Damping damping;
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
@@ -145,6 +146,10 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& k
 inline bool sceneHasContact(const Scene& scene) {
   return !scene.obstacles.empty() || scene.contact.selfCollision;
 }
+
+/// Per vertex: pinned by the scene from the start and never released (midedge bending treats
+/// triangles with three such vertices as clamp plates). Errors as resolveSelection.
+Expected<std::vector<char>> heldVertices(const Scene& scene, Index numVertices);
 
 /// Membrane Lame parameters (N/m) of a scene: volumetric moduli times thickness.
 Expected<Lame> membraneLame(const Scene& scene);

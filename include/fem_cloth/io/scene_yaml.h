@@ -20,7 +20,9 @@ Expected<YAML::Node> loadSceneDocument(const std::string& path,
                                        const std::vector<std::string>& overrides = {});
 /// Applies one `key.path=value` override to a document; the path must name a known key.
 Status applySceneOverride(YAML::Node& document, const std::string& assignment);
-/// Converts a document into a validated Scene; sourcePath resolves relative mesh files.
+/// Converts a document into a validated Scene; sourcePath resolves relative mesh files and
+/// preset files. `material: {preset: NAME}` merges a fabric preset from config/materials/
+/// (docs/materials.md, "Presets") under the scene's own keys.
 Expected<Scene> parseScene(const YAML::Node& document, const std::string& sourcePath = "");
 /// loadSceneDocument + parseScene.
 Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
