@@ -170,8 +170,8 @@ TEST(LiveChanges, GraspNearestPinsTheVerticesWithinTheRadius) {
   ASSERT_TRUE(g && w);
   EXPECT_EQ(g->header.frame_id, "gripper");
   EXPECT_EQ(w->header.frame_id, "world");
-  EXPECT_LT(g->wrench.force.z, -0.1) << "the gripper carries nothing";
-  EXPECT_LT(w->wrench.force.z, -0.1) << "the corners carry nothing";
+  // How the weight splits depends on where the corner was when grasped (held above its hanging
+  // place, the cloth pushes the gripper up): only the sum is known.
   EXPECT_NEAR(g->wrench.force.z + w->wrench.force.z, -2.0, 0.01);
   EXPECT_NEAR(g->wrench.force.x + w->wrench.force.x, 0.0, 0.01);
   EXPECT_NEAR(g->wrench.force.y + w->wrench.force.y, 0.0, 0.01);
