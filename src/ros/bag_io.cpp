@@ -306,6 +306,7 @@ Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {
 }
 
 Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
+  if (path.empty()) return std::unique_ptr<RunWriter>(new RunWriter(path, ""));
   Expected<std::string> temporary = createTemporaryNextTo(path);
   if (!temporary) return Error{temporary.error()};
   std::unique_ptr<RunWriter> writer(new RunWriter(path, *temporary));
@@ -318,7 +319,7 @@ Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
 }
 
 RunWriter::~RunWriter() {
-  if (!closed_) {
+  if (!closed_ && !path_.empty()) {
     try {
       bag_.close();
     } catch (const rosbag::BagException&) {
@@ -328,6 +329,7 @@ RunWriter::~RunWriter() {
 }
 
 Status RunWriter::close() {
+  if (path_.empty()) return Status::success();
   try {
     bag_.close();
   } catch (const rosbag::BagException& e) {

@@ -125,8 +125,8 @@ void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& 
 // The SimulationDriver fed with a recorded run, as the report steps it.
 class DriverRun : public DrivenSimulation {
  public:
-  DriverRun(Simulation simulation, const RecordedRun& run, double recordedDt)
-      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get()) {
+  DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
     // A command the driver rejects was rejected live as well (the recording holds the applied
     // stream): skipping it is what the node did.
     for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
@@ -154,8 +154,9 @@ class BagRecording : public Recording {
     for (const RecordedState& s : run_.states) recorded = std::max(recorded, secondsBetween(s.stamp, run_.states.front().stamp));
     return recorded;
   }
-  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, double recordedDt) const override {
-    return std::make_unique<DriverRun>(std::move(simulation), run_, recordedDt);
+  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, const YAML::Node& document,
+                                          double recordedDt) const override {
+    return std::make_unique<DriverRun>(std::move(simulation), document, run_, recordedDt);
   }
 
  private:
@@ -206,7 +207,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.scene = scene->name;
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
-  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr);
+  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.

@@ -2,7 +2,7 @@
 //
 //   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
 //                 [--duration S] [--set key=value]... [--out DIR | --out FILE.bag] [--every N]
-//   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
+//   fem_cloth_sim --commands recorded.bag [--out replay.bag] [--scene S] [--verify]
 //   fem_cloth_sim --scene S [--set key=value]... --check [--write-scene FILE]
 //
 // --summary-json FILE also writes the summary for programs (fem_cloth_batch's index).
@@ -248,13 +248,13 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
                      {"energy", energyJson(r.energy)},
                      {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
                      {"state_hash", r.finalHash},
-                     {"outputs", r.failure.empty() ? Json{opt.out} : Json::array()}};
+                     {"outputs", r.failure.empty() && !opt.out.empty() ? Json::array({opt.out}) : Json::array()}};
   if (!writeSummaryJson(opt, summary)) return 2;
   if (!r.failure.empty()) {
     std::cerr << "fem_cloth_sim: " << oneLine(r.failure) << "; no bag was written\n";
     return 3;
   }
-  std::cout << "output:       " << opt.out << '\n';
+  std::cout << "output:       " << (opt.out.empty() ? "none (no --out)" : opt.out) << '\n';
   if (opt.verify && r.identical < r.compared) {
     std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
               << " recorded states were not reproduced\n";
@@ -490,7 +490,7 @@ int run(int argc, char** argv) {
                  "ending in .bag to write a bag (~scene, ~mesh, ~state, ~energy, ~stats)");
   app.add_option("--commands", opt.commands,
                  "re-simulate a recorded run: apply its commands (applied_pin/applied_force, "
-                 "else pin/force) at their stamps, follow its /tf; needs --out FILE.bag");
+                 "else pin/force) at their stamps, follow its /tf; writes --out FILE.bag if given");
   app.add_option("--node", opt.node, "the node whose topics the bags hold (/fem_cloth_node)");
   app.add_flag("--verify", opt.verify,
                "with --commands: exit 4 unless every recorded state is reproduced bit for bit");
@@ -549,8 +549,9 @@ int run(int argc, char** argv) {
   }
   const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
   if (!opt.commands.empty() || bagOut) {
-    if (!bagOut) {
-      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag\n";
+    // Without --out a re-simulation only compares and summarises (--verify): no bag written.
+    if (!bagOut && !opt.out.empty()) {
+      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag (or no --out)\n";
       return 2;
     }
     return runBag(opt, overrides);

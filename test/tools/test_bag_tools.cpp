@@ -97,6 +97,24 @@ TEST(FemClothSimBags, WritesAndVerifiesARun) {
   EXPECT_NE(r.err.find("recorded states were not reproduced"), std::string::npos) << r.err;
 }
 
+// --verify needs no --out (issue 15, item 6): it compares and writes nothing.
+TEST(FemClothSimBags, VerifiesWithoutWritingABag) {
+  const std::string run = scratch().path("verify_only.bag");
+  ProgramResult r = sim({"--scene", kScene, "--duration", "0.3", "--out", run, "-q"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const auto before = std::distance(std::filesystem::directory_iterator(scratch().path("")),
+                                    std::filesystem::directory_iterator());
+  r = sim({"--commands", run, "--verify", "-q"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  // 0.3 s at dt 0.01, a state every 3 steps: steps 0, 3, ..., 30.
+  EXPECT_NE(r.out.find("reproduced:   11 of 11 recorded states bit for bit"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("output:       none"), std::string::npos) << r.out;
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(scratch().path("")), std::filesystem::directory_iterator()),
+            before) << "a file was written";
+  r = sim({"--commands", run, "--integrator", "symplectic_euler", "--verify", "-q"});
+  EXPECT_EQ(r.status, 4) << r.out << r.err;
+}
+
 TEST(FemClothSimBags, BadBagsAreOneErrorAndStatus2) {
   ProgramResult r = sim({"--commands", scratch().path("missing.bag"), "--out", scratch().path("o.bag")});
   EXPECT_EQ(r.status, 2);
