@@ -394,7 +394,9 @@ Status readContact(const YAML::Node& node, Scene& s) {
 /// under the scene's own keys: its material keys where the scene has none (not its E and nu
 /// when the scene gives mu or lambda), its bending stiffness and Poisson ratio likewise.
 Expected<YAML::Node> withMaterialPreset(const YAML::Node& document, const std::string& sourcePath) {
-  if (!document.IsMap() || !document["material"].IsMap() || !document["material"]["preset"].IsDefined()) {
+  // IsDefined() first: yaml-cpp throws when a missing key's node is asked anything else.
+  if (!document.IsMap() || !document["material"].IsDefined() || !document["material"].IsMap() ||
+      !document["material"]["preset"].IsDefined()) {
     return document;
   }
   const YAML::Node name = document["material"]["preset"];
