@@ -130,7 +130,14 @@ class RunReader {
     } else if (topic == topics_.state) {
       if (auto msg = m.instantiate<ClothState>()) return addState(*msg, m.getTime(), what);
     } else if (const Command* c = readCommand(m, topics_, &sent_, &applied_)) {
-      return checkStamp(headerOf(*c).stamp, run_.begin, what);
+      // The node refuses a command stamped beyond what a ROS duration can hold (and records
+      // it all the same, as sent): the replay leaves it out as the node did, with a warning,
+      // rather than refusing the whole recording for it.
+      if (Status s = checkStamp(headerOf(*c).stamp, run_.begin, what); !s) {
+        dropLast(c);
+        run_.warnings.push_back(s.error() + "; left out, as the node refuses such a command");
+      }
+      return Status::success();
     } else if (topic == "/tf" || topic == "/tf_static") {
       if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
         for (const auto& t : msg->transforms) {
@@ -162,6 +169,18 @@ class RunReader {
   }
 
  private:
+  // Removes the command readCommand just added (the last of its list).
+  void dropLast(const Command* c) {
+    for (auto* lists : {&sent_, &applied_}) {
+      for (std::vector<Command>& list : *lists) {
+        if (!list.empty() && &list.back() == c) {
+          list.pop_back();
+          return;
+        }
+      }
+    }
+  }
+
   Status addState(const ClothState& msg, const ros::Time& time, const std::string& what) {
     FEM_CLOTH_CHECK(checkStamp(msg.header.stamp, run_.begin, what));
     // A node reset (~reset) starts again from step 0: the commands before and after it cannot

@@ -206,8 +206,13 @@ TEST(FemClothSimBags, BagsThatUsedToCrashAreOneLineAndStatus2) {
   far.header.frame_id = "world";
   far.vertices = {0};
   far.targets.resize(1);
-  expectBadBag(sim({"--commands", bagWith("far_command.bag", "/fem_cloth_node/pin", far), "--out", out, "-q"}),
-               {"far_command.bag", "/fem_cloth_node/pin", "4.29497e+09 s", "1e+09 s"});
+  // The node refuses such a command (and records it as sent): the replay leaves it out with a
+  // warning naming it, and runs (ACommandTheNodeRefusedForItsStampIsLeftOutOfTheReplay).
+  const ProgramResult farRun = sim({"--commands", bagWith("far_command.bag", "/fem_cloth_node/pin", far), "-q"});
+  EXPECT_EQ(farRun.status, 0) << farRun.err;
+  for (const char* word : {"/fem_cloth_node/pin", "4.29497e+09 s", "1e+09 s", "left out"}) {
+    EXPECT_NE(farRun.err.find(word), std::string::npos) << farRun.err;
+  }
   tf2_msgs::TFMessage tf;
   tf.transforms.resize(1);
   tf.transforms[0].header.stamp = ros::Time(4e9);
@@ -311,6 +316,52 @@ TEST(FemClothSimBags, CommandsOfARecordingAfter2038Replay) {
 // A recording that spans a reset of the node (~reset: the state's step goes back) cannot be
 // reproduced, since nothing in it says which commands came before the reset: refused, by the
 // replay and by bagdiff, naming where the reset is.
+// The node refuses a command stamped 2^32 s and records it as sent; a replay of that recording
+// leaves it out the same way (with a warning) instead of refusing the whole recording.
+TEST(FemClothSimBags, ACommandTheNodeRefusedForItsStampIsLeftOutOfTheReplay) {
+  const std::string run = scratch().path("far_stamp_run.bag");
+  ASSERT_EQ(sim({"--scene", kScene, "--duration", "0.3", "--out", run, "-q"}).status, 0);
+  auto withForces = [&](const std::string& name, bool farOne) {
+    const std::string path = scratch().path(name);
+    rosbag::Bag in(run), out(path, rosbag::bagmode::Write);
+    ros::Time epoch;
+    for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+      if (auto s = m.instantiate<fem_cloth::ClothState>()) {
+        if (s->step == 0) epoch = s->header.stamp;
+        out.write(m.getTopic(), m.getTime(), *s);
+      } else if (auto scene = m.instantiate<std_msgs::String>()) {
+        out.write(m.getTopic(), m.getTime(), *scene);
+      }
+    }
+    fem_cloth::ForceCommand force;
+    force.header.stamp = ros::Time(epoch.toSec() + 0.105);
+    force.header.frame_id = "world";
+    force.action = fem_cloth::ForceCommand::APPLY;
+    force.vertices = {40};
+    force.forces.resize(1);
+    force.forces[0].x = 2.0;
+    out.write("/fem_cloth_node/force", force.header.stamp, force);
+    if (farOne) {
+      force.header.stamp = ros::Time(4294967295u, 0u);
+      force.forces[0].x = 50.0;
+      out.write("/fem_cloth_node/force", ros::Time(epoch.toSec() + 0.2), force);
+    }
+    return path;
+  };
+  static const std::regex digest("digest: +([0-9a-f]{16})");
+  // Not --verify: the recorded states are those of the run without forces.
+  const ProgramResult good = sim({"--commands", withForces("far_stamp_good.bag", false), "--duration", "0.3"});
+  const ProgramResult far = sim({"--commands", withForces("far_stamp_far.bag", true), "--duration", "0.3"});
+  ASSERT_EQ(far.status, 0) << far.err;
+  EXPECT_NE(far.err.find("left out"), std::string::npos) << far.err;
+  EXPECT_NE(far.err.find("4.29497e+09"), std::string::npos) << far.err;
+  EXPECT_NE(far.out.find("1 force"), std::string::npos) << far.out;
+  std::smatch a, b;
+  ASSERT_TRUE(std::regex_search(good.out, a, digest)) << good.out;
+  ASSERT_TRUE(std::regex_search(far.out, b, digest)) << far.out;
+  EXPECT_EQ(a[1].str(), b[1].str());  // the refused force had no effect
+}
+
 TEST(FemClothSimBags, ARecordingThatSpansAResetIsRefused) {
   const std::string reset = scratch().path("reset.bag"), plain = scratch().path("plain.bag");
   writeLinearMotion(reset, 4, 2, 10, 0.0, 6);

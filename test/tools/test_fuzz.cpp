@@ -80,7 +80,7 @@ const std::vector<std::string> kScenes = {
     R"(name: grid
 mesh: {type: grid, rows: 5, cols: 5, width: 0.4, height: 0.4, plane: xz, origin: [0, 0, 1]}
 material: {model: stvk, youngs_modulus: 2.0e6, poisson_ratio: 0.3, thickness: 5.0e-4, density: 2000}
-bending: {model: quadratic, stiffness: 1.0e-5}
+bending: {stiffness: 1.0e-5}
 damping: {mass: 0.5, stiffness: 0.001}
 gravity: [0, 0, -9.81]
 integrator: {name: symplectic_euler, dt: 0.01, auto_substep: true, cfl_safety: 0.5, max_retries: 2}
@@ -414,8 +414,12 @@ duration: 0.1
 
 }  // namespace
 
-// Inputs that crashed the tools before: each is refused in one line, with status 2.
+// Inputs that crashed the tools before: each is refused in one line, with status 2 — except a
+// recording whose only fault is a command stamped where no ROS duration reaches: the node
+// refused that command when it came, so the replay leaves it out with one warning naming it
+// (status 0; docs/replay.md).
 TEST(Fuzz, InputsThatCrashedBeforeAreRefused) {
+  const std::string leftOut = "command_stamp_4294967295.bag";
   int count = 0;
   for (const auto& e : fs::directory_iterator(kRegressions)) {
     const std::string path = e.path().string();
@@ -425,6 +429,11 @@ TEST(Fuzz, InputsThatCrashedBeforeAreRefused) {
     const ProgramResult r = ext == ".yaml"
                                 ? runSim({"--scene", path, "--no-output", "-q"})
                                 : runSim({"--commands", path, "--out", scratch().path("regression_out.bag"), "-q"});
+    if (e.path().filename() == leftOut) {
+      EXPECT_EQ(r.status, 0) << path << "\n" << r.err;
+      EXPECT_NE(r.err.find("left out"), std::string::npos) << path << "\n" << r.err;
+      continue;
+    }
     EXPECT_EQ(r.status, 2) << path << "\n" << r.err;
     EXPECT_EQ(errorLines(r.err).size(), 1u) << path << "\n" << r.err;
   }
