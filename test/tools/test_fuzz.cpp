@@ -80,7 +80,7 @@ const std::vector<std::string> kScenes = {
     R"(name: grid
 mesh: {type: grid, rows: 5, cols: 5, width: 0.4, height: 0.4, plane: xz, origin: [0, 0, 1]}
 material: {model: stvk, youngs_modulus: 2.0e6, poisson_ratio: 0.3, thickness: 5.0e-4, density: 2000}
-bending: {stiffness: 1.0e-5}
+bending: {model: quadratic, stiffness: 1.0e-5}
 damping: {mass: 0.5, stiffness: 0.001}
 gravity: [0, 0, -9.81]
 integrator: {name: symplectic_euler, dt: 0.01, auto_substep: true, cfl_safety: 0.5, max_retries: 2}
@@ -136,7 +136,7 @@ duration: 0.03
     R"(name: pd
 mesh: {type: grid, rows: 4, cols: 4, width: 0.3, height: 0.3}
 material: {model: arap, youngs_modulus: 2.0e6, poisson_ratio: 0.3}
-bending: {stiffness: 1.0e-5}
+bending: {model: quadratic, stiffness: 1.0e-5}
 integrator: {name: projective_dynamics, dt: 0.01, iterations: 5, chebyshev_rho: 0.9}
 pins: [{grid_edge: first_row}]
 duration: 0.03
