@@ -98,10 +98,6 @@ const Command* readCommand(const rosbag::MessageInstance& m, const RunTopics& to
   return added;
 }
 
-}  // namespace
-
-namespace {
-
 Status checkStamp(const ros::Time& stamp, const ros::Time& begin, const std::string& what) {
   if (stamp.isZero()) return Status::success();  // "now" for commands, static for tf
   const double distance = std::abs(secondsBetween(stamp, begin));
@@ -202,10 +198,6 @@ class RunReader {
   std::size_t count_ = 0;
   std::array<std::vector<Command>, kCommandTopics> sent_, applied_;
 };
-
-}  // namespace
-
-namespace {
 
 // rosbag and tf2 also print what they find wrong (a damaged record header, a refused transform)
 // through console_bridge, in several lines of their own; here it comes back as one error or
