@@ -14,7 +14,7 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 
 constexpr int kMaxHinges = MidedgeElement::kMaxHinges;
-constexpr int kMaxVertices = MidedgeElement::kMaxVertices;
+constexpr int kElementVertices = MidedgeElement::kMaxVertices;
 
 /// A symmetric 2 x 2 tensor as (S11, S22, S12): the curvature h of a quadratic height field
 /// w = S11 x^2 / 2 + S22 y^2 / 2 + S12 x y.
@@ -400,7 +400,7 @@ void scatterElement(const Matrix& Ke, const MidedgeElement& e, const int* pairOf
                     const std::vector<int>& columnStride, double* values) {
   for (int p = 0; p < e.numVertices; ++p) {
     for (int q = 0; q < e.numVertices; ++q) {
-      const int first = pairOffset[p * kMaxVertices + q];
+      const int first = pairOffset[p * kElementVertices + q];
       const int stride = columnStride[e.vertices[q]];
       for (int l = 0; l < 3; ++l) {
         for (int k = 0; k < 3; ++k) values[first + l * stride + k] += Ke(3 * p + k, 3 * q + l);
@@ -414,7 +414,7 @@ void scatterElement(const Matrix& Ke, const MidedgeElement& e, const int* pairOf
 template <class GradientOf>
 void gaussNewton(const MidedgeElement& e, const GradientOf& measureGradient,
                  MidedgeBending::ElementHessian* Ke) {
-  Eigen::Matrix<double, 3, 3 * kMaxVertices> FJ = Eigen::Matrix<double, 3, 3 * kMaxVertices>::Zero();
+  Eigen::Matrix<double, 3, 3 * kElementVertices> FJ = Eigen::Matrix<double, 3, 3 * kElementVertices>::Zero();
   for (int s = 0; s < e.numHinges; ++s) {
     const HingeVector& g = measureGradient(s);
     for (int a = 0; a < 4; ++a) {
@@ -504,12 +504,12 @@ void MidedgeBending::appendStencils(std::vector<std::vector<Index>>* stencils) c
 void MidedgeBending::bindHessian(const SparseHessian& hessian) {
   HingeTerm::bindHessian(hessian);
   curvatureHessian_.resize(hinges_.size());
-  pairOffset_.assign(elements_.size() * kMaxVertices * kMaxVertices, -1);
+  pairOffset_.assign(elements_.size() * kElementVertices * kElementVertices, -1);
   for (std::size_t i = 0; i < elements_.size(); ++i) {
     const MidedgeElement& e = elements_[i];
     for (int p = 0; p < e.numVertices; ++p) {
       for (int q = 0; q < e.numVertices; ++q) {
-        pairOffset_[i * kMaxVertices * kMaxVertices + p * kMaxVertices + q] =
+        pairOffset_[i * kElementVertices * kElementVertices + p * kElementVertices + q] =
             hessian.blockColumnOffset(e.vertices[p], e.vertices[q], 0);
       }
     }
@@ -579,7 +579,7 @@ void MidedgeBending::addGaussNewton(SparseHessian& hessian) const {
   for (std::size_t i = 0; i < elements_.size(); ++i) {
     const MidedgeElement& e = elements_[i];
     gaussNewton(e, [&](int s) -> const HingeVector& { return measureGradient_[e.hinges[s]]; }, &Ke);
-    scatterElement(Ke, e, &pairOffset_[i * kMaxVertices * kMaxVertices], columnStride_, values);
+    scatterElement(Ke, e, &pairOffset_[i * kElementVertices * kElementVertices], columnStride_, values);
   }
 }
 

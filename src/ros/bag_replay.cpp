@@ -6,10 +6,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/simulation_driver.h"
+#include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
 
@@ -53,6 +56,64 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_;
 };
 
+// The step of the recorded run, which dates its states: that of the scene stored in the bag
+// (a replay with --scene or --set may step differently), else the replay's.
+double recordedDt(const RecordedRun& run, double replayDt) {
+  if (run.sceneYaml.empty()) return replayDt;
+  try {
+    const Expected<Scene> recorded = parseScene(YAML::Load(run.sceneYaml));
+    if (recorded) return recorded->dt;
+  } catch (const YAML::Exception&) {
+  }
+  return replayDt;
+}
+
+// The ROS time of simulation time 0: from the recorded states, else the start of the bag (or 0
+// without one). Every stamp the replay compares with it lies within kMaxRecordingSpan of the
+// start of the recording (readRun), so keeping it there too keeps their differences within what
+// ros::Duration holds.
+Expected<ros::Time> replayEpoch(const RecordedRun* run, double dt) {
+  if (run == nullptr) return ros::Time(0);
+  if (run->states.empty()) return run->begin;
+  const std::optional<ros::Time> epoch = runEpoch(*run, recordedDt(*run, dt));
+  const RecordedState& first = run->states.front();
+  if (!epoch || std::abs(secondsBetween(*epoch, run->begin)) > kMaxRecordingSpan) {
+    return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
+                 ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
+                 "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
+  }
+  return *epoch;
+}
+
+// How long the run lasts (s): --duration, else up to the last recorded state, the last command
+// + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from `epoch`, within the
+// recording's span and ros::Time.
+Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene, double lastRecorded,
+                                double lastCommand, bool anyCommand, const ros::Time& epoch,
+                                const ros::Time& reference) {
+  double duration = options.duration;
+  std::string what = "--duration";
+  if (!(duration > 0.0)) {
+    if (lastRecorded > 0.0) {
+      duration = lastRecorded;
+      what = "the last recorded state";
+    } else if (anyCommand) {
+      duration = lastCommand + 1.0;
+      what = "the last command";
+    } else {
+      duration = scene.duration;
+      what = "the scene's duration";
+    }
+  }
+  FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
+  const double end = epoch.toSec() + duration;
+  if (!(secondsBetween(epoch, reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
+    return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
+                 (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
+  }
+  return duration;
+}
+
 // The commands the step applied, topic after topic, each on its applied_ topic.
 void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& out) {
   forEachCommandType([&](auto type) {
@@ -64,8 +125,8 @@ void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& 
 // The SimulationDriver fed with a recorded run, as the report steps it.
 class DriverRun : public DrivenSimulation {
  public:
-  DriverRun(Simulation simulation, const RecordedRun& run, double recordedDt)
-      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get()) {
+  DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
     // A command the driver rejects was rejected live as well (the recording holds the applied
     // stream): skipping it is what the node did.
     for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
@@ -90,11 +151,12 @@ class BagRecording : public Recording {
   Expected<YAML::Node> scene() const override { return storedScene(run_, node_); }
   double recordedDuration() const override {
     double recorded = 0.0;
-    for (const RecordedState& s : run_.states) recorded = std::max(recorded, (s.stamp - run_.states.front().stamp).toSec());
+    for (const RecordedState& s : run_.states) recorded = std::max(recorded, secondsBetween(s.stamp, run_.states.front().stamp));
     return recorded;
   }
-  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, double recordedDt) const override {
-    return std::make_unique<DriverRun>(std::move(simulation), run_, recordedDt);
+  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, const YAML::Node& document,
+                                          double recordedDt) const override {
+    return std::make_unique<DriverRun>(std::move(simulation), document, run_, recordedDt);
   }
 
  private:
@@ -123,6 +185,11 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   if (!doc) return Error{doc.error()};
   Expected<Scene> scene = parseScene(*doc, options.sceneFile);
   if (!scene) return Error{"scene: " + scene.error()};
+  FEM_CLOTH_CHECK(checkNotAnInput(outBag, {inBag, options.sceneFile, meshFilePath(*scene)}));
+  // Found now rather than when the finished bag cannot be renamed into place.
+  if (std::error_code ec; std::filesystem::is_directory(outBag, ec)) {
+    return Error{"cannot write bag '" + outBag + "': it is a directory"};
+  }
   Expected<Simulation> simulation = buildSimulation(*scene);
   if (!simulation) return Error{"scene: " + simulation.error()};
   if (run && run->mesh) {
@@ -132,15 +199,15 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   }
   const double dt = scene->dt;
   DriverSettings settings;
-  settings.epoch = ros::Time(0);
-  if (run) {
-    settings.epoch = runEpoch(*run, dt).value_or(run->begin);
-    if (!run->frame.empty()) settings.frame = run->frame;
-  }
+  Expected<ros::Time> epoch = replayEpoch(run ? &*run : nullptr, dt);
+  if (!epoch) return Error{epoch.error()};
+  settings.epoch = *epoch;
+  if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
-  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr);
+  if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
+  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.
@@ -150,7 +217,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     report.exactCommands = run->exactCommands;
     for (const Command& c : run->commands) {
       ++report.commands[static_cast<std::size_t>(topicOf(c))];
-      lastCommand = std::max(lastCommand, (headerOf(c).stamp - settings.epoch).toSec());
+      lastCommand = std::max(lastCommand, secondsBetween(headerOf(c).stamp, settings.epoch));
       if (Status s = driver.submit(c); !s) {
         ++report.rejected;
         report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
@@ -158,17 +225,11 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     }
     for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
   }
-  double duration = options.duration;
-  if (!(duration > 0.0)) {
-    if (!recorded.empty()) {
-      duration = static_cast<double>(recorded.rbegin()->first) * dt;
-    } else if (!run->commands.empty()) {
-      duration = lastCommand + 1.0;
-    } else {
-      duration = scene->duration;
-    }
-  }
-  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(duration / dt - 1e-9)));
+  Expected<double> duration = replayDuration(
+      options, *scene, recorded.empty() ? 0.0 : static_cast<double>(recorded.rbegin()->first) * dt,
+      lastCommand, run && !run->commands.empty(), settings.epoch, run ? run->begin : ros::Time(0));
+  if (!duration) return Error{duration.error()};
+  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(*duration / dt - 1e-9)));
   const std::uint64_t every =
       options.every > 0 ? static_cast<std::uint64_t>(options.every)
                         : std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(1.0 / (30.0 * dt))));
@@ -216,7 +277,9 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     for (std::string& w : driver.takeWarnings()) report.warnings.push_back(std::move(w));
     writeApplied(driver, topics, out);
     if (!r.ok) {
-      return Error{"the simulation failed at step " + std::to_string(k + 1) + ": " + r.error};
+      // No bag: the writer removes its temporary file.
+      report.failure = "the simulation failed at step " + std::to_string(k + 1) + ": " + r.error;
+      break;
     }
     ++report.steps;
     if (wanted(driver.stepIndex())) {
@@ -229,7 +292,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.finalHash = stateHash(driver.simulator().state().x, driver.simulator().state().v);
   report.energy = driver.simulator().energies();
   report.stretch = EdgeStretchMeter(driver.simulator().model().mesh()).measure(driver.simulator().state().x);
-  if (Status s = out.close(); !s) return Error{s.error()};
+  if (report.failure.empty()) FEM_CLOTH_CHECK(out.close());
   return report;
 }
 

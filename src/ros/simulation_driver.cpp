@@ -1,11 +1,14 @@
 #include "fem_cloth/ros/simulation_driver.h"
 
+#include <ros/names.h>
+
 #include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
 #include <type_traits>
 
+#include "fem_cloth/core/live_change.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/ros/time_checks.h"
 #include "fem_cloth/ros/transform_wait.h"
@@ -39,9 +42,11 @@ Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertic
 
 }  // namespace
 
-SimulationDriver::SimulationDriver(Simulation simulation, DriverSettings settings, const tf2::BufferCore* tf)
+SimulationDriver::SimulationDriver(Simulation simulation, DriverSettings settings, const tf2::BufferCore* tf,
+                                   YAML::Node document)
     : simulation_(std::move(simulation)),
       settings_(std::move(settings)),
+      document_(std::move(document)),
       frames_(tf, settings_.frame, settings_.tfTimeout),
       pending_(settings_.maxPendingCommands),
       pinSet_(settings_.maxPinJump) {}
@@ -75,6 +80,21 @@ template <>
 std::vector<int> SimulationDriver::transformTimes(const ForceCommand& c) const {
   if (c.action == ForceCommand::CLEAR) return {};
   return {0};
+}
+
+template <>
+std::vector<int> SimulationDriver::transformTimes(const SetCommand&) const {
+  return {};
+}
+
+template <>
+std::vector<int> SimulationDriver::transformTimes(const ObstacleCommand&) const {
+  return {};  // an obstacle that follows a frame waits for it like every obstacle does
+}
+
+template <>
+std::vector<int> SimulationDriver::transformTimes(const GraspCommand&) const {
+  return {0, 1};  // like a pin: placed now, following at the step's end
 }
 
 std::vector<std::pair<std::string, double>> SimulationDriver::neededTransforms() const {
@@ -179,6 +199,52 @@ Status SimulationDriver::check(const ForceCommand& c) const {
   return Status::success();
 }
 
+Status SimulationDriver::needsDocument() const {
+  if (!document_ || document_.IsNull()) return Error{"live changes need the scene document, which this driver was not given"};
+  return Status::success();
+}
+
+template <>
+Status SimulationDriver::check(const SetCommand& c) const {
+  if (Status s = needsDocument(); !s) return s;
+  const Expected<LiveChange> change = applyLiveChange(document_, c.pairs);
+  return change ? Status::success() : Status(Error{change.error()});
+}
+
+namespace {
+
+Expected<ObstacleEdit> obstacleChange(const ObstacleCommand& c) {
+  switch (c.action) {
+    case ObstacleCommand::ADD: return ObstacleEdit::Add;
+    case ObstacleCommand::REMOVE: return ObstacleEdit::Remove;
+    case ObstacleCommand::MOVE: return ObstacleEdit::Move;
+    default: return Error{"unknown action " + std::to_string(c.action) + " (ADD = 0, REMOVE = 1, MOVE = 2)"};
+  }
+}
+
+}  // namespace
+
+template <>
+Status SimulationDriver::check(const ObstacleCommand& c) const {
+  if (Status s = needsDocument(); !s) return s;
+  const Expected<ObstacleEdit> kind = obstacleChange(c);
+  if (!kind) return Error{kind.error()};
+  if (*kind == ObstacleEdit::Add) {
+    if (Status s = obstacleNameProblem(c.name); !s) return s;
+  }
+  const Expected<LiveChange> change = applyObstacleChange(document_, *kind, c.name, c.entry);
+  return change ? Status::success() : Status(Error{change.error()});
+}
+
+template <>
+Status SimulationDriver::check(const GraspCommand& c) const {
+  if (!std::isfinite(c.radius) || !(c.radius > 0.0)) {
+    return Error{"radius must be finite and > 0 m, got " + numberText(c.radius)};
+  }
+  if (!finite(c.point)) return Error{"point is not finite"};
+  return checkFrame(c.header.frame_id, c.header.stamp);
+}
+
 Status SimulationDriver::submit(const Command& c) {
   CommandCounts& counts = counts_[static_cast<std::size_t>(topicOf(c))];
   ++counts.received;
@@ -192,7 +258,7 @@ Status SimulationDriver::submit(const Command& c) {
 }
 
 template <>
-Status SimulationDriver::apply(const PinCommand& c) {
+Status SimulationDriver::apply(PinCommand& c) {
   Simulator& sim = simulator();
   const std::vector<Index> vertices(c.vertices.begin(), c.vertices.end());
   if (c.action == PinCommand::RELEASE) {
@@ -212,7 +278,7 @@ Status SimulationDriver::apply(const PinCommand& c) {
 }
 
 template <>
-Status SimulationDriver::apply(const ForceCommand& c) {
+Status SimulationDriver::apply(ForceCommand& c) {
   Simulator& sim = simulator();
   if (c.action == ForceCommand::CLEAR) {
     if (c.vertices.empty()) sim.clearForces();
@@ -230,11 +296,58 @@ Status SimulationDriver::apply(const ForceCommand& c) {
   return Status::success();
 }
 
+Status SimulationDriver::changeScene(Expected<LiveChange> change) {
+  if (!change) return Error{change.error()};
+  Expected<Simulation> next = changeLive(simulation_, change->scene);
+  if (!next) return Error{next.error()};
+  simulation_ = std::move(next).value();
+  document_ = change->document;
+  obstacleFrame_.clear();  // obstacles may have been added or removed: placed anew from their frames
+  return Status::success();
+}
+
+template <>
+Status SimulationDriver::apply(SetCommand& c) {
+  if (Status s = needsDocument(); !s) return s;
+  return changeScene(applyLiveChange(document_, c.pairs));
+}
+
+template <>
+Status SimulationDriver::apply(ObstacleCommand& c) {
+  if (Status s = needsDocument(); !s) return s;
+  const Expected<ObstacleEdit> kind = obstacleChange(c);
+  if (!kind) return Error{kind.error()};
+  return changeScene(applyObstacleChange(document_, *kind, c.name, c.entry));
+}
+
+template <>
+Status SimulationDriver::apply(GraspCommand& c) {
+  Simulator& sim = simulator();
+  const FramePose T = frames_.pose(c.header.frame_id, now());
+  if (!T.pose) return Error{T.why};
+  Eigen::Vector3d centre = *T.pose * Eigen::Vector3d(c.point.x, c.point.y, c.point.z);
+  if (sim.dim() == 2) centre.z() = 0.0;
+  const Mesh& mesh = sim.model().mesh();
+  std::vector<Index> vertices;
+  for (Index v = 0; v < mesh.numVertices(); ++v) {
+    if ((vertex3(mesh, sim.state().x, v) - centre).norm() <= c.radius) vertices.push_back(v);
+  }
+  if (vertices.empty()) {
+    return Error{"no vertex within " + numberText(c.radius) + " m of (" + numberText(centre.x()) + ", " +
+                 numberText(centre.y()) + ", " + numberText(centre.z()) + ") in the simulation frame"};
+  }
+  const std::string follows = frames_.isSimulationFrame(c.header.frame_id) ? "" : c.header.frame_id;
+  if (Status s = pinSet_.pin(sim, vertices, {}, follows, *T.pose); !s) return s;
+  if (!T.inexact.empty()) warnings_.push_back("grasp command: " + T.inexact);
+  c.vertices.assign(vertices.begin(), vertices.end());
+  return Status::success();
+}
+
 void SimulationDriver::applyDue(double t) {
   const double dt = simulator().settings().dt;
   for (Command& c : pending_.takeDue(t + 1e-9 * dt)) {
     CommandCounts& counts = counts_[static_cast<std::size_t>(topicOf(c))];
-    const Status s = std::visit([this](const auto& command) { return apply(command); }, c);
+    const Status s = std::visit([this](auto& command) { return apply(command); }, c);
     if (!s) {
       ++counts.rejected;
       warnings_.push_back(std::string("~") + topicName(topicOf(c)) +
@@ -248,9 +361,8 @@ void SimulationDriver::applyDue(double t) {
 }
 
 StepReport SimulationDriver::step() {
-  Simulator& sim = simulator();
-  const double t = sim.time();
-  const double dt = sim.settings().dt;
+  const double t = simulator().time();
+  const double dt = simulator().settings().dt;
   // Every state is stamped with its ROS time: a run stops before that would leave the range.
   if (Expected<ros::Time> end = checkedTimeAfter(settings_.epoch, t + dt, "the end of the step at simulation time");
       !end) {
@@ -262,6 +374,8 @@ StepReport SimulationDriver::step() {
   }
   frames_.forgetBefore(stampOf(t));
   applyDue(t);
+  // Taken after the commands: a live change among them replaced the simulator.
+  Simulator& sim = simulator();
   if (Status s = simulation_.script.applyDue(sim); !s) warnings_.push_back(s.error());
   const ros::Time end = stampOf(t + dt);
   for (std::string& w : pinSet_.follow(sim, [this, &end](const std::string& frame) { return frames_.pose(frame, end); })) {
@@ -338,6 +452,15 @@ std::vector<std::string> SimulationDriver::obstacleNames() const {
     for (std::size_t k = 0; k < contact->numObstacles(); ++k) names.push_back(contact->obstacle(k).name);
   }
   return names;
+}
+
+Status obstacleNameProblem(const std::string& name) {
+  std::string why;
+  if (!ros::names::validate(name, why) || name.find('/') != std::string::npos) {
+    return Error{"obstacle '" + name + "': its name must be a valid ROS name without '/' (it names "
+                 "the topic ~obstacles/<name>/wrench)"};
+  }
+  return Status::success();
 }
 
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,

@@ -186,7 +186,7 @@ int runEval() {
   }
   if (std::cin.bad()) {
     std::cerr << "fem_cloth_materials eval: cannot read standard input\n";
-    return 1;
+    return 2;
   }
   return 0;
 }
@@ -275,7 +275,7 @@ int runSweep(const SweepOptions& o) {
   std::ofstream csv(csvPath);
   if (!csv) {
     std::cerr << "fem_cloth_materials sweep: cannot write " << csvPath << "\n";
-    return 1;
+    return 2;
   }
   csv << kSweepHeader << "\n";
   const DefGrad<2> T = DefGrad<2>::Identity();
@@ -298,7 +298,7 @@ int runSweep(const SweepOptions& o) {
   csv.close();
   if (!csv) {
     std::cerr << "fem_cloth_materials sweep: error writing " << csvPath << "\n";
-    return 1;
+    return 2;
   }
   std::cout << "wrote " << csvPath.string() << " (" << materialNames().size() << " models x "
             << o.count << " values of s)\n";
@@ -306,7 +306,7 @@ int runSweep(const SweepOptions& o) {
     const fs::path pngPath = fs::path(o.outDir) / "material_sweep.png";
     if (const std::string problem = plotSweep(csvPath, pngPath, o); !problem.empty()) {
       std::cerr << "fem_cloth_materials sweep --plot: " << problem << "\n";
-      return 1;
+      return 2;
     }
     std::cout << "wrote " << pngPath.string() << "\n";
   }
@@ -429,7 +429,7 @@ int runAudit(double mu, double lambda, const std::string& csvPath) {
     csv.close();
     if (!csv) {
       std::cerr << "fem_cloth_materials audit: cannot write " << csvPath << "\n";
-      return 1;
+      return 2;
     }
     std::cout << "\nwrote " << csvPath << "\n";
   }
@@ -531,7 +531,9 @@ std::pair<CLI::App*, CLI::App*> addLabSubcommands(CLI::App& app, LabOptions& o) 
 }  // namespace
 }  // namespace fem_cloth
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   using namespace fem_cloth;
   CLI::App app{"fem_cloth_materials: explore fem_cloth's membrane material models (linear, stvk, "
                "corotational, arap, neo_hookean, stable_neo_hookean). Lame parameters are "
@@ -556,7 +558,7 @@ Output: one JSON line per non-blank input line, in order:
   Neo-Hookean with J <= 0, ...); the tool then goes on with the next line.
 Blank lines (empty or white space only) are skipped: they get no output line, so a reply matches
 the N-th non-blank input line; error messages give the input line number.
-Exit status: 0, also when lines had errors; 1 if standard input cannot be read.)");
+Exit status: 0, also when lines had errors; 2 if standard input cannot be read.)");
 
   SweepOptions sweepOptions;
   CLI::App* sweep = app.add_subcommand(
@@ -603,10 +605,30 @@ s <= 0) psi is inf and P11, P22 are nan.)");
               << "' (expected eval, sweep, audit, from-bending-length or from-elongation; see --help)\n";
     return 2;
   }
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help succeeds; any other parse error is one line, exit status 2.
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::cerr << "fem_cloth_materials: " << e.what() << " (see --help)\n";
+    return 2;
+  }
   if (eval->parsed()) return runEval();
   if (sweep->parsed()) return runSweep(sweepOptions);
   if (fromBendingLength->parsed()) return runFromBendingLength(lab);
   if (fromElongation->parsed()) return runFromElongation(lab);
   return runAudit(auditMu, auditLambda, auditCsv);
+}
+
+}  // namespace
+
+// Exit status: 0, 2 bad input (options, an output that cannot be written, unreadable standard
+// input), 3 an unexpected error; each with one line on stderr.
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "fem_cloth_materials: " << e.what() << '\n';
+    return 3;
+  }
 }

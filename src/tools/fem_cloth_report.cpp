@@ -707,7 +707,7 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int runReport(int argc, char** argv) {
   Options opt;
   CLI::App app{
       "The fem_cloth accuracy and stability report (docs/accuracy.md): work precision and\n"
@@ -839,4 +839,14 @@ int main(int argc, char** argv) {
     return 4;
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  // The last line of defence: an unexpected exception is one line and status 3, not an abort.
+  try {
+    return runReport(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "fem_cloth_report: " << e.what() << '\n';
+    return 3;
+  }
 }

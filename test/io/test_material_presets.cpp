@@ -96,6 +96,19 @@ TEST(MaterialPresets, ErrorsNameThePresetAndTheKey) {
   EXPECT_EQ(*fine->youngsModulus, 1.0e6);
 }
 
+TEST(MaterialPresets, AFileWithoutMaterialKeysGetsTheUsualMessages) {
+  // No material map at all: the preset lookup steps aside and the reader names what is missing
+  // (this once came back as "unexpected structure (invalid node ...)").
+  const Expected<Scene> none = parseScene(YAML::Load("mesh: {type: grid, rows: 4, cols: 4}\n"), "");
+  ASSERT_FALSE(none.ok());
+  EXPECT_NE(none.error().find("youngs_modulus"), std::string::npos) << none.error();
+  EXPECT_EQ(none.error().find("unexpected structure"), std::string::npos) << none.error();
+  const Expected<Scene> typo =
+      parseScene(YAML::Load("mesh: {type: grid, rows: 4, cols: 4}\nintegrator: {substepz: 2}\n"), "");
+  ASSERT_FALSE(typo.ok());
+  EXPECT_NE(typo.error().find("integrator.substepz"), std::string::npos) << typo.error();
+}
+
 TEST(MaterialsLab, FromBendingLengthIsPeircesFormula) {
   const test::TempDir dir("fem_cloth_lab");
   const test::ProgramResult r =

@@ -18,6 +18,7 @@ namespace fem_cloth {
 class DrivenSimulation {
  public:
   virtual ~DrivenSimulation() = default;
+  /// The simulator now: a live change among the commands replaces it, so ask again after step().
   virtual Simulator& simulator() = 0;
   /// One step, with the commands and frame poses due before it applied.
   virtual StepReport step() = 0;
@@ -32,10 +33,12 @@ class Recording {
   virtual Expected<YAML::Node> scene() const = 0;
   /// Simulated time (s) from the first to the last recorded state.
   virtual double recordedDuration() const = 0;
-  /// `simulation` driven by the recording's commands and frames, on the recording's time grid
-  /// (its states and `recordedDt`, the step it was recorded with, fix the time origin). A
-  /// command rejected now was rejected live as well: it is skipped, as the node did.
-  virtual std::unique_ptr<DrivenSimulation> drive(Simulation simulation, double recordedDt) const = 0;
+  /// `simulation` (built from `document`, which live changes in the recording change) driven by
+  /// the recording's commands and frames, on the recording's time grid (its states and
+  /// `recordedDt`, the step it was recorded with, fix the time origin). A command rejected now
+  /// was rejected live as well: it is skipped, as the node did.
+  virtual std::unique_ptr<DrivenSimulation> drive(Simulation simulation, const YAML::Node& document,
+                                                  double recordedDt) const = 0;
 };
 
 }  // namespace fem_cloth

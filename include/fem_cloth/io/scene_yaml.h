@@ -7,12 +7,17 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "fem_cloth/core/scene.h"
 
 namespace fem_cloth {
+
+/// The largest scene file read (bytes): far more than any scene with an explicit mesh of
+/// practical size, far less than what would exhaust the memory of the YAML tree.
+constexpr std::uintmax_t kMaxSceneFileBytes = 16u << 20;
 
 /// Reads a scene document and applies `key.path=value` overrides (the value is YAML: a number,
 /// a word, or a [list]).

@@ -25,6 +25,10 @@
 
 namespace fem_cloth {
 
+/// The most a recording may span (s, 31 years): every stamp readRun accepts lies within it of the
+/// start of the recording, so differences of stamps stay within what ros::Duration holds (2^31 s).
+constexpr double kMaxRecordingSpan = 1e9;
+
 /// The topic names of a node's run.
 struct RunTopics {
   explicit RunTopics(const std::string& node = "/fem_cloth_node");
@@ -55,39 +59,45 @@ struct RecordedRun {
   std::vector<Command> commands;
   bool exactCommands = false;  ///< the commands came from applied_pin / applied_force
   std::shared_ptr<tf2::BufferCore> tf;  ///< every /tf and /tf_static message of the bag
+  std::vector<std::string> warnings;     ///< what was left out (transforms tf refused)
   ros::Time begin, end;  ///< the bag's time range
 };
 
-/// Reads a run. Errors name the problem: a missing or unreadable file, a truncated or otherwise
-/// damaged bag, a known topic with the wrong message type.
+/// Reads a run. Errors name the problem: a missing or unreadable file, an empty, truncated or
+/// otherwise damaged bag, a known topic with the wrong message type, a stamp farther than
+/// kMaxRecordingSpan from the start of the recording, a reset of the node (the states' step
+/// going back), which no replay can reproduce.
 Expected<RecordedRun> readRun(const std::string& path, const std::string& node = "/fem_cloth_node");
 
 /// The scene document a run holds (the one way to read it: the node's ~replay_bag, fem_cloth_sim
 /// --commands and the report). The error names the bag and says what to do instead.
 Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node = "/fem_cloth_node");
 
-/// The ROS time of simulation time 0 of a recorded run (from its states and the step size).
+/// The ROS time of simulation time 0 of a recorded run (from its states and the step size); none
+/// without states, or when the first state's step x dt does not fit before its stamp.
 std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt);
 
 /// Checks that a mesh stored in a bag is the scene's mesh (same triangles, same rest positions).
 Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene);
 
-/// Writes a bag through a temporary file that takes the final name only in close(): a run that
-/// fails leaves no output that looks valid.
+/// Writes a bag through a temporary file next to it (createTemporaryNextTo) that takes the
+/// final name only in close(): a run that fails or is killed leaves no output that looks valid.
+/// An empty path writes nothing (a run only verified).
 class RunWriter {
  public:
   static Expected<std::unique_ptr<RunWriter>> open(const std::string& path);
   ~RunWriter();
   template <class M>
   void write(const std::string& topic, const ros::Time& time, const M& message) {
-    bag_.write(topic, time, message);
+    if (!path_.empty()) bag_.write(topic, time, message);
   }
   /// Closes and renames the bag into place.
   Status close();
 
  private:
-  explicit RunWriter(std::string path) : path_(std::move(path)) {}
-  std::string path_;
+  RunWriter(std::string path, std::string temporary)
+      : path_(std::move(path)), temporary_(std::move(temporary)) {}
+  std::string path_, temporary_;
   rosbag::Bag bag_;
   bool closed_ = false;
 };

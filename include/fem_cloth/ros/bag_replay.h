@@ -46,9 +46,14 @@ struct BagRunReport {
   EnergyReport energy;
   EdgeStretch stretch;  ///< of the final state
   std::vector<std::string> warnings;
+  /// Why the simulation failed (a step that could not be taken), empty when it ran to the end.
+  /// The report then describes the run up to the failure, and no bag is written.
+  std::string failure;
 };
 
-/// Runs into `outBag` (written as outBag.partial and renamed at the end). `inBag` may be empty.
+/// Runs into `outBag`, through a temporary file renamed at the end (RunWriter). `inBag` may be
+/// empty. An error is bad input: an unreadable or inconsistent bag, a bad scene, an output that
+/// is one of the inputs, a run too long; a simulation that fails is a report with `failure`.
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options);
 

@@ -38,11 +38,13 @@
 #include <tf2_ros/buffer.h>
 
 #include <array>
+#include <map>
 #include <memory>
 #include <string>
 
 #include "fem_cloth/Advance.h"
 #include "fem_cloth/ros/command_queue.h"
+#include "fem_cloth/ros/live_services.h"
 #include "fem_cloth/ros/perception.h"
 #include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/simulation_driver.h"
@@ -101,9 +103,13 @@ class ClothNode {
   void stepOnce();
   /// /clock at the simulation time (fast mode only).
   void publishClock();
+  /// The real-time factor is measured from here (start, reset, resume, each ~1 s window).
+  void restartRealTimeFactorWindow();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
-  /// ~pin_forces and ~pin_wrench, from one copy of the pin reactions.
+  /// ~pin_forces, ~pin_wrench and ~grasp/<frame>/wrench, from one copy of the pin reactions.
   void publishPinReactions();
+  /// ~obstacles/<name>/wrench and ~obstacle_markers for the obstacles there are now.
+  void refreshObstacleTopics();
   /// At least once a second; within 0.1 s after a problem (at most 10 per second).
   void publishDiagnostics(bool force);
   CommandCounts commandCounts(CommandTopic topic) const;
@@ -163,6 +169,8 @@ class ClothNode {
       pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_,
       obstacleMarkerPub_;
   std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order
+  std::map<std::string, ros::Publisher> graspWrenchPubs_;  // ~grasp/<frame>/wrench, by frame
+  std::unique_ptr<LiveServices> live_;  // ~set, the obstacle services, ~grasp_nearest
   std::string sceneText_;
   ros::ServiceServer resetSrv_, pauseSrv_, resumeSrv_, stepSrv_, advanceSrv_;
 };

@@ -17,7 +17,10 @@
 
 #include "fem_cloth/CommandStats.h"
 #include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/GraspCommand.h"
+#include "fem_cloth/ObstacleCommand.h"
 #include "fem_cloth/PinCommand.h"
+#include "fem_cloth/SetCommand.h"
 #include "fem_cloth/core/expected.h"
 
 namespace fem_cloth {
@@ -36,12 +39,24 @@ template <>
 struct CommandTraits<ForceCommand> {
   static constexpr const char* name = "force";
 };
+template <>
+struct CommandTraits<SetCommand> {
+  static constexpr const char* name = "set";  ///< also the ~set service
+};
+template <>
+struct CommandTraits<ObstacleCommand> {
+  static constexpr const char* name = "obstacle";  ///< also ~add_obstacle, ~remove_obstacle, ~move_obstacle
+};
+template <>
+struct CommandTraits<GraspCommand> {
+  static constexpr const char* name = "grasp";  ///< also the ~grasp_nearest service
+};
 
-using Command = std::variant<PinCommand, ForceCommand>;
+using Command = std::variant<PinCommand, ForceCommand, SetCommand, ObstacleCommand, GraspCommand>;
 constexpr std::size_t kCommandTopics = std::variant_size_v<Command>;
 
 /// A topic by its index in Command (Pin and Force named for the code that means them).
-enum class CommandTopic : std::size_t { Pin = 0, Force = 1 };
+enum class CommandTopic : std::size_t { Pin = 0, Force = 1, Set = 2, Obstacle = 3, Grasp = 4 };
 
 inline CommandTopic topicOf(const Command& c) { return static_cast<CommandTopic>(c.index()); }
 template <class C>

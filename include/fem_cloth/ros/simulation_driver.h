@@ -24,6 +24,7 @@
 
 #include "fem_cloth/core/pin_set.h"
 #include "fem_cloth/core/scene.h"
+#include "fem_cloth/io/live_change.h"
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/conversions.h"
 #include "fem_cloth/ros/frame_resolver.h"
@@ -46,10 +47,15 @@ struct DriverSettings {
 
 class SimulationDriver {
  public:
-  /// tf may be null: then only commands in the simulation frame are accepted.
-  SimulationDriver(Simulation simulation, DriverSettings settings, const tf2::BufferCore* tf);
+  /// tf may be null: then only commands in the simulation frame are accepted. `document` is the
+  /// scene document the simulation was built from; without it, live changes (~set, obstacle
+  /// commands) are refused.
+  SimulationDriver(Simulation simulation, DriverSettings settings, const tf2::BufferCore* tf,
+                   YAML::Node document = YAML::Node());
 
   const DriverSettings& settings() const { return settings_; }
+  /// The scene document as live changes have left it (null without one).
+  const YAML::Node& document() const { return document_; }
   Simulator& simulator() { return *simulation_.simulator; }
   const Simulator& simulator() const { return *simulation_.simulator; }
   std::uint64_t stepIndex() const { return simulator().state().step; }
@@ -121,17 +127,22 @@ class SimulationDriver {
   template <class C>
   Status check(const C& command) const;
   template <class C>
-  Status apply(const C& command);
+  Status apply(C& command);  // may fill in what it did (GraspCommand: the vertices)
   template <class C>
   std::vector<int> transformTimes(const C& command) const;
   /// (frame, simulation time) of every transform the next step needs.
   std::vector<std::pair<std::string, double>> neededTransforms() const;
   void applyDue(double t);
+  /// The simulation rebuilt for a changed scene (core/live_change.h), continuing from now.
+  Status changeScene(Expected<LiveChange> change);
+  /// The document to change, or an error when the driver has none.
+  Status needsDocument() const;
   /// Poses of the frames obstacles follow at the start and end of the step from `time`.
   void followObstacleFrames(double time, double endTime);
 
   Simulation simulation_;
   DriverSettings settings_;
+  YAML::Node document_;
   FrameResolver frames_;
   CommandQueue pending_;
   std::array<CommandCounts, kCommandTopics> counts_{};  // pending is pending_'s
@@ -140,6 +151,10 @@ class SimulationDriver {
   std::vector<std::string> warnings_;
   std::vector<Command> applied_;
 };
+
+/// Why `name` cannot name an obstacle (it names the topic ~obstacles/<name>/wrench): not a valid
+/// ROS name, or with a '/'.
+Status obstacleNameProblem(const std::string& name);
 
 /// The statistics of the step just taken (wall time and real-time factor as measured by the
 /// caller), with the driver's command counts.
