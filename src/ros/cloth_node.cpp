@@ -495,8 +495,7 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
     if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
       StepStats stats = statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_);
-      stats.pin_commands = toMsg(commandCounts(CommandTopic::Pin));
-      stats.force_commands = toMsg(commandCounts(CommandTopic::Force));
+      setCommandStats(stats, [this](CommandTopic topic) { return commandCounts(topic); });
       statsPub_.publish(stats);
     }
     publishPinReactions();
