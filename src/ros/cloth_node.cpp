@@ -661,6 +661,14 @@ void ClothNode::turn() {
   }
   if (b.resumed) restartRealTime();
   if (!b.running && !b.stepWanted) {
+    // Before its first step a node paused from the start keeps its time origin at ROS time now
+    // (as ~resume sets it then), so that a pin or grasp in a moving frame is checked against
+    // the frame as it is now, not as it was when the node started (refused as 'unknown at the
+    // time it is needed' after a pause longer than tf_timeout). Not once a step is wanted: the
+    // step's times must not move while it waits for their transforms.
+    if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
+      driver_->setEpoch(ros::Time::now());
+    }
     publishDiagnostics(false);
     control_->wait(0.05);
     return;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/tf_intake.h"
@@ -520,3 +521,16 @@ TEST(TfIntake, ATransformStampedWhereTf2OverflowsIsRefusedNotThrown) {
   EXPECT_FALSE(insertTransform(tf, t, "test", true).ok());
 }
 
+// A recording's time origin comes from its first state after step 0: a node paused from the
+// start moves its origin to ROS time until its first step, so the step-0 state a recorder got at
+// start-up (stamp 100 s) is older than the origin of the run (105 s: step 3 at 105.03 s, dt 0.01).
+TEST(RunEpoch, TakenFromTheFirstStateAfterStepZero) {
+  RecordedRun run;
+  run.states = {{0, ros::Time(100.0), "a"}, {0, ros::Time(105.0), "a"}, {3, ros::Time(105, 30000000), "b"}};
+  const std::optional<ros::Time> epoch = runEpoch(run, 0.01);
+  ASSERT_TRUE(epoch);
+  EXPECT_NEAR(epoch->toSec(), 105.0, 1e-9);
+  // Only step-0 states: the last one.
+  run.states.pop_back();
+  EXPECT_EQ(runEpoch(run, 0.01), std::optional<ros::Time>(ros::Time(105.0)));
+}
