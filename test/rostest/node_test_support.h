@@ -8,6 +8,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include <atomic>
+#include <cstdint>
 #include <cmath>
 #include <functional>
 #include <mutex>
@@ -168,13 +169,14 @@ inline bool finite(const fem_cloth::ClothEnergy& e) {
   return true;
 }
 
-/// Waits until a publisher has a subscriber connected (so a first message is not lost).
-inline bool waitForConnection(const ros::Publisher& pub, double timeout = 10.0) {
+/// Waits until a publisher has `subscribers` subscribers connected (so a first message is not
+/// lost; 2 when a recorder must hear it as well as the node).
+inline bool waitForConnection(const ros::Publisher& pub, double timeout = 10.0, std::uint32_t subscribers = 1) {
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && pub.getNumSubscribers() == 0 && ros::WallTime::now() < end) {
+  while (ros::ok() && pub.getNumSubscribers() < subscribers && ros::WallTime::now() < end) {
     ros::WallDuration(0.01).sleep();
   }
-  return pub.getNumSubscribers() > 0;
+  return pub.getNumSubscribers() >= subscribers;
 }
 
 /// Publishes the transform make() returns on a /tf publisher every 10 ms, on a thread of its own,

@@ -166,10 +166,13 @@ TEST(LiveChanges, GraspNearestPinsTheVerticesWithinTheRadius) {
   Latest<fem_cloth::ClothEnergy> energy(topic("energy"));
   Latest<geometry_msgs::WrenchStamped> gripper(topic("grasp/gripper/wrench"));
   Latest<geometry_msgs::WrenchStamped> world(topic("grasp/world/wrench"));
+  // Connected before the wait for rest, and generous timeouts: on a loaded machine a new
+  // subscription and the node's steps both take seconds.
+  ASSERT_TRUE(gripper.waitConnected(20.0) && world.waitConnected(20.0));
   ASSERT_TRUE(energy.waitFor([](const fem_cloth::ClothEnergy& e) { return e.kinetic < 1e-7; }, 40.0))
       << "the cloth did not come to rest";
-  auto g = gripper.waitForNext(5.0);
-  auto w = world.waitForNext(5.0);
+  auto g = gripper.waitForNext(20.0);
+  auto w = world.waitForNext(20.0);
   ASSERT_TRUE(g && w);
   EXPECT_EQ(g->header.frame_id, "gripper");
   EXPECT_EQ(w->header.frame_id, "world");

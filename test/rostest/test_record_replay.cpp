@@ -4,6 +4,7 @@
 // fem_cloth_bagdiff finds the two identical.
 #include <signal.h>
 #include <sys/wait.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <unistd.h>
 
@@ -93,7 +94,13 @@ TEST(RecordReplay, OfflineReplayOfARecordingIsExact) {
     ros::WallDuration(0.05).sleep();
   }
   ASSERT_TRUE(std::filesystem::exists(bag + ".active")) << "rosbag record did not start";
-  ros::WallDuration(1.5).sleep();
+  // The bag must hold the gripper's transforms from before the grasp, or the replay has to stand
+  // in for them (and differs): wait until the recorder, besides the node, hears /tf and ~pin
+  // (on a loaded machine it subscribes well after creating its file).
+  ros::Publisher tfCount = nh.advertise<tf2_msgs::TFMessage>("/tf", 1);
+  ASSERT_TRUE(waitForConnection(tfCount, 30.0, 2)) << "the recorder does not hear /tf";
+  ASSERT_TRUE(waitForConnection(pins, 30.0, 2)) << "the recorder does not hear ~pin";
+  ros::WallDuration(0.5).sleep();
 
   // Grasp the far corners (row 8 of the 9 x 9 grid) where they are, in the gripper frame.
   pins.publish(pinInPlace("gripper", {72, 80}));
