@@ -302,7 +302,7 @@ TEST(Claims, KnownBugTheEnergyGuardMisjudgesAFastPin) {
     Expected<Scene> scene = parseScene(*cellScene(Cell{"whip", "stvk", "cotton", "symplectic_euler", dt}, 9));
     Simulation sim = std::move(buildSimulation(*scene)).value();
     SimulatorSettings settings = sim.simulator->settings();
-    settings.energyGuard = guard;
+    settings.acceptance.energy = guard;
     sim.simulator = std::make_unique<Simulator>(sim.model, std::make_unique<SymplecticEuler>(), settings);
     const Eigen::Vector3d velocity = scene->pins[0].velocity;
     EXPECT_TRUE(sim.simulator->pin(0, Eigen::Vector3d::Zero(), velocity).ok());
