@@ -183,15 +183,11 @@ Expected<Mesh> loadObj(const std::string& path, int dim) {
   return parseObj(buffer.str(), dim, path);
 }
 
-namespace {
-
 Eigen::Vector3d vertex3(const Mesh& mesh, const VectorX& x, Index i) {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
   for (int k = 0; k < mesh.dim; ++k) p[k] = x[mesh.dim * i + k];
   return p;
 }
-
-}  // namespace
 
 double triangleArea(const Mesh& mesh, const VectorX& positions, Index t, bool signedArea) {
   const Triangle& tri = mesh.triangles[t];

@@ -328,6 +328,33 @@ Status readObstacles(const YAML::Node& list, Scene& s) {
   return Status::success();
 }
 
+// frames: [{name: corner, vertex: 0}, {name: other, grid_vertex: [0, -1]}]
+Status readFrames(const YAML::Node& list, Scene& s) {
+  if (!list.IsSequence()) return Error{"frames must be a list of {name, vertex or grid_vertex}"};
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string key = "frames[" + std::to_string(i) + "]";
+    MapReader r(list[i], key, {"name", "vertex", "grid_vertex"});
+    FEM_CLOTH_TRY(r.check());
+    SceneFrame f;
+    FEM_CLOTH_TRY(r.text("name", f.name));
+    if (f.name.empty()) return Error{key + ".name is required"};
+    if (r.has("vertex") == r.has("grid_vertex")) return Error{key + " needs one of vertex and grid_vertex"};
+    if (r.has("vertex")) {
+      int v = 0;
+      FEM_CLOTH_TRY(r.integer("vertex", v));
+      f.select.vertices.push_back(v);
+    } else {
+      const YAML::Node n = r.child("grid_vertex");
+      std::array<int, 2> rc{};
+      if (!n.IsSequence() || n.size() != 2) return Error{r.where("grid_vertex") + " must be a [row, col] pair"};
+      for (int j = 0; j < 2; ++j) FEM_CLOTH_TRY(MapReader::toInteger(n[j], r.where("grid_vertex"), rc[j]));
+      f.select.gridVertices.push_back(rc);
+    }
+    s.frames.push_back(f);
+  }
+  return Status::success();
+}
+
 Status readContact(const YAML::Node& node, Scene& s) {
   MapReader r(node, "contact",
               {"distance", "stiffness", "self_collision", "self_friction", "friction_velocity"});
@@ -357,7 +384,7 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
   s.sourcePath = sourcePath;
   MapReader root(doc, "",
                  {"name", "mesh", "material", "bending", "damping", "gravity", "integrator",
-                  "pins", "forces", "initial", "duration", "obstacles", "contact"});
+                  "pins", "forces", "initial", "duration", "obstacles", "contact", "frames"});
   if (!doc.IsMap()) return Error{"scene must be a map of keys, got " + describe(doc)};
   FEM_CLOTH_TRY(root.check());
   FEM_CLOTH_TRY(root.text("name", s.name));
@@ -434,6 +461,7 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
   }
   if (root.has("obstacles")) FEM_CLOTH_TRY(readObstacles(root.child("obstacles"), s));
   FEM_CLOTH_TRY(readContact(root.child("contact"), s));
+  if (root.has("frames")) FEM_CLOTH_TRY(readFrames(root.child("frames"), s));
   MapReader init(root.child("initial"), "initial", {"positions", "velocity"});
   FEM_CLOTH_TRY(init.check());
   FEM_CLOTH_TRY(init.vector("velocity", s.initialVelocity));

@@ -192,6 +192,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.simulated = driver.simulator().time();
   report.finalHash = stateHash(driver.simulator().state().x, driver.simulator().state().v);
   report.energy = driver.simulator().energies();
+  report.stretch = EdgeStretchMeter(driver.simulator().model().mesh()).measure(driver.simulator().state().x);
   if (Status s = out.close(); !s) return Error{s.error()};
   return report;
 }

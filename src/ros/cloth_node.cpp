@@ -6,12 +6,14 @@
 #include <std_msgs/String.h>
 #include <rosgraph_msgs/Clock.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/scene_params.h"
+#include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
 
@@ -20,19 +22,6 @@ namespace {
 std::string defaultSceneFile() {
   const std::string share = ros::package::getPath("fem_cloth");
   return share.empty() ? std::string() : share + "/config/hanging_cloth.yaml";
-}
-
-// Reads an optional private parameter of type T, checking its type: a parameter that is set
-// with the wrong type is an error naming it.
-template <typename T>
-bool readParam(const ros::NodeHandle& nh, const std::string& name, T& value, std::string* error,
-               const char* expected) {
-  if (!nh.hasParam(name)) return true;
-  if (!nh.getParam(name, value)) {
-    *error = "parameter ~" + name + " must be " + expected;
-    return false;
-  }
-  return true;
 }
 
 // Steps between publications for a rate in Hz (0: every step).
@@ -44,11 +33,15 @@ std::uint64_t everyFor(double rate, double dt) {
 }  // namespace
 
 const std::vector<std::string>& ClothNode::parameterNames() {
-  static const std::vector<std::string> names = {
-      "scene_file",   "frame_id",      "time_mode",          "real_time_factor",
-      "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
-      "always_publish", "start_paused", "tf_timeout",        "strain_color_max",
-      "step_lag",     "replay_bag"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> own = {
+        "scene_file",   "frame_id",      "time_mode",          "real_time_factor",
+        "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
+        "always_publish", "start_paused", "tf_timeout",        "step_lag",
+        "replay_bag",   "max_pin_jump",  "max_pending_commands", "command_queue_size"};
+    own.insert(own.end(), perceptionParameterNames().begin(), perceptionParameterNames().end());
+    return own;
+  }();
   return names;
 }
 
@@ -68,22 +61,32 @@ bool ClothNode::readParameters(std::string* error) {
       !readParam(private_, "always_publish", alwaysPublish_, error, "true or false") ||
       !readParam(private_, "start_paused", startPaused_, error, "true or false") ||
       !readParam(private_, "tf_timeout", tfTimeout_, error, "a number (s)") ||
-      !readParam(private_, "strain_color_max", strainColorMax_, error, "a number") ||
       !readParam(private_, "step_lag", stepLag_, error, "a number (s)") ||
-      !readParam(private_, "replay_bag", replayBag_, error, "a path")) {
+      !readParam(private_, "replay_bag", replayBag_, error, "a path") || !readLimits(error)) {
     return false;
   }
-  if (!(stepLag_ >= 0.0) || !std::isfinite(stepLag_)) {
+  // Times and durations the run loop will compute with: range checked here, so that a value
+  // rostime cannot hold stops start-up naming it instead of aborting the node later.
+  if (Expected<ros::Duration> lag = checkedDuration(stepLag_, "parameter ~step_lag"); !lag) {
+    *error = lag.error();
+    return false;
+  }
+  if (!(stepLag_ >= 0.0)) {
     *error = "parameter ~step_lag must be >= 0 s";
     return false;
   }
   if (private_.hasParam("start_time")) {
     double seconds = 0.0;
-    if (!private_.getParam("start_time", seconds) || !std::isfinite(seconds) || seconds < 0) {
+    if (!private_.getParam("start_time", seconds)) {
       *error = "parameter ~start_time must be a number of seconds >= 0";
       return false;
     }
-    startTime_ = ros::Time(seconds);
+    Expected<ros::Time> start = checkedTime(seconds, "parameter ~start_time");
+    if (!start) {
+      *error = start.error();
+      return false;
+    }
+    startTime_ = *start;
     hasStartTime_ = true;
   }
   if (frame_.empty()) {
@@ -106,12 +109,30 @@ bool ClothNode::readParameters(std::string* error) {
     *error = "parameters ~publish_rate and ~marker_rate must be >= 0 Hz";
     return false;
   }
+  if (Expected<ros::Duration> d = checkedDuration(tfTimeout_, "parameter ~tf_timeout"); !d) {
+    *error = d.error();
+    return false;
+  }
   if (!(tfTimeout_ > 0.0)) {
     *error = "parameter ~tf_timeout must be positive (s)";
     return false;
   }
-  if (!(strainColorMax_ > 0.0)) {
-    *error = "parameter ~strain_color_max must be positive";
+  return true;
+}
+
+bool ClothNode::readLimits(std::string* error) {
+  if (!readParam(private_, "max_pin_jump", maxPinJump_, error, "a number (m)") ||
+      !readParam(private_, "max_pending_commands", maxPendingCommands_, error, "an integer") ||
+      !readParam(private_, "command_queue_size", commandQueueSize_, error, "an integer")) {
+    return false;
+  }
+  if (!(maxPinJump_ > 0.0)) {
+    *error = "parameter ~max_pin_jump must be positive (m), got " + numberText(maxPinJump_);
+    return false;
+  }
+  if (maxPendingCommands_ < 1 || commandQueueSize_ < 1) {
+    *error = "parameters ~max_pending_commands and ~command_queue_size must be >= 1, got " +
+             std::to_string(maxPendingCommands_) + " and " + std::to_string(commandQueueSize_);
     return false;
   }
   return true;
@@ -165,6 +186,10 @@ bool ClothNode::start(std::string* error) {
 
   if (replay && !hasStartTime_) {
     if (std::optional<ros::Time> epoch = runEpoch(*replay, scene->dt)) {
+      if (Expected<ros::Time> t = checkedTime(epoch->toSec(), "the time origin of ~replay_bag"); !t) {
+        *error = t.error();
+        return false;
+      }
       startTime_ = *epoch;
       hasStartTime_ = true;
     }
@@ -173,22 +198,34 @@ bool ClothNode::start(std::string* error) {
   settings.frame = frame_;
   settings.tfTimeout = tfTimeout_;
   settings.publishVelocities = publishVelocities_;
-  settings.strainColorMax = strainColorMax_;
+  settings.maxPinJump = maxPinJump_;
+  settings.maxPendingCommands = static_cast<std::size_t>(maxPendingCommands_);
   const double dt = scene->dt;
   driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), *scene, settings,
                                                &tfBuffer_);
   publishEvery_ = everyFor(publishRate_, dt);
   markerEvery_ = everyFor(markerRate_, dt);
-  paused_ = startPaused_;
+  control_ = std::make_unique<RunControl>(startPaused_, dt);
+  inbox_ = std::make_unique<CommandInbox>(static_cast<std::size_t>(maxPendingCommands_));
+  tfWait_ = std::make_unique<TransformWait>(tfTimeout_, [this](const std::string& frame) {
+    return newestTransform(tfBuffer_, frame_, frame);
+  });
 
-  tfListener_ = std::make_unique<tf2_ros::TransformListener>(tfBuffer_, node_);
-  meshPub_ = private_.advertise<shape_msgs::Mesh>("mesh", 1, true);
-  statePub_ = private_.advertise<ClothState>("state", 10);
-  energyPub_ = private_.advertise<ClothEnergy>("energy", 10);
-  statsPub_ = private_.advertise<StepStats>("stats", 10);
-  markerPub_ = private_.advertise<visualization_msgs::Marker>("marker", 2);
-  pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
-  pinWrenchPub_ = private_.advertise<geometry_msgs::WrenchStamped>("pin_wrench", 10);
+  tfIntake_ = std::make_unique<TfIntake>(node_, tfBuffer_);
+  // Perception outputs (perception.h): ~points, ~camera/*, ~marker and tf frames.
+  PerceptionSettings perception;
+  perception.frame = frame_;
+  perception.originFrame = ros::this_node::getName().substr(1);
+  perception.alwaysPublish = alwaysPublish_;
+  perception.clothFrames = replayBag_.empty();
+  if (!readPerceptionParameters(private_, perception, error)) return false;
+  Expected<std::unique_ptr<PerceptionOutputs>> outputs =
+      PerceptionOutputs::create(private_, *driver_, tfBuffer_, std::move(perception));
+  if (!outputs) {
+    *error = outputs.error();
+    return false;
+  }
+  perception_ = std::move(outputs).value();
   // Obstacles (only when the scene has some: a scene pays for what it declares).
   const std::vector<std::string> obstacles = driver_->obstacleNames();
   if (!obstacles.empty()) {
@@ -204,18 +241,7 @@ bool ClothNode::start(std::string* error) {
     obstacleWrenchPubs_.push_back(
         private_.advertise<geometry_msgs::WrenchStamped>("obstacles/" + name + "/wrench", 10));
   }
-  diagnosticsPub_ = node_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
-  scenePub_ = private_.advertise<std_msgs::String>("scene", 1, true);
-  appliedPinPub_ = private_.advertise<PinCommand>("applied_pin", 100);
-  appliedForcePub_ = private_.advertise<ForceCommand>("applied_force", 100);
-  if (timeMode_ == TimeMode::Fast) clockPub_ = node_.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  pinSub_ = private_.subscribe("pin", 100, &ClothNode::onPin, this);
-  forceSub_ = private_.subscribe("force", 100, &ClothNode::onForce, this);
-  resetSrv_ = private_.advertiseService("reset", &ClothNode::onReset, this);
-  pauseSrv_ = private_.advertiseService("pause", &ClothNode::onPause, this);
-  resumeSrv_ = private_.advertiseService("resume", &ClothNode::onResume, this);
-  stepSrv_ = private_.advertiseService("step", &ClothNode::onStep, this);
-  advanceSrv_ = private_.advertiseService("advance", &ClothNode::onAdvance, this);
+  advertise();
 
   std::ostringstream info;
   const Simulator& sim = driver_->simulator();
@@ -225,125 +251,207 @@ bool ClothNode::start(std::string* error) {
        << dt << " s, frame '" << frame_ << "', "
        << (timeMode_ == TimeMode::Fast ? "fast (publishing /clock)" : "real time");
   if (timeMode_ == TimeMode::RealTime && realTimeFactor_ != 1.0) info << " x" << realTimeFactor_;
-  if (paused_) info << ", paused";
+  if (startPaused_) info << ", paused";
   ROS_INFO_STREAM(info.str());
   return true;
 }
 
-void ClothNode::reject(const std::string& topic, const std::string& why) {
-  ++rejected_;
-  lastProblem_ = "~" + topic + " rejected: " + why;
-  ROS_WARN_STREAM("fem_cloth_node: " << lastProblem_);
-  publishDiagnostics(true);
+void ClothNode::advertise() {
+  meshPub_ = private_.advertise<shape_msgs::Mesh>("mesh", 1, true);
+  statePub_ = private_.advertise<ClothState>("state", 10);
+  energyPub_ = private_.advertise<ClothEnergy>("energy", 10);
+  statsPub_ = private_.advertise<StepStats>("stats", 10);
+  pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
+  pinWrenchPub_ = private_.advertise<geometry_msgs::WrenchStamped>("pin_wrench", 10);
+  diagnosticsPub_ = node_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
+  scenePub_ = private_.advertise<std_msgs::String>("scene", 1, true);
+  // Every applied command goes out (a recording replays exactly these), also in the burst after a
+  // slow step: as many as may be pending.
+  appliedPinPub_ = private_.advertise<PinCommand>("applied_pin", maxPendingCommands_);
+  appliedForcePub_ = private_.advertise<ForceCommand>("applied_force", maxPendingCommands_);
+  if (timeMode_ == TimeMode::Fast) clockPub_ = node_.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  pinSub_ = private_.subscribe("pin", commandQueueSize_, &ClothNode::onPin, this);
+  forceSub_ = private_.subscribe("force", commandQueueSize_, &ClothNode::onForce, this);
+  pauseSrv_ = private_.advertiseService("pause", &ClothNode::onPause, this);
+  resumeSrv_ = private_.advertiseService("resume", &ClothNode::onResume, this);
+  stepSrv_ = private_.advertiseService("step", &ClothNode::onStep, this);
+  ros::NodeHandle blocking(private_);
+  blocking.setCallbackQueue(&blockingQueue_);
+  resetSrv_ = blocking.advertiseService("reset", &ClothNode::onReset, this);
+  advanceSrv_ = blocking.advertiseService("advance", &ClothNode::onAdvance, this);
 }
 
-void ClothNode::onPin(const PinCommand::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (Status s = driver_->submit(*msg); !s) reject("pin", s.error());
-}
+// --- Callbacks (roscpp's spinner threads): they never touch the simulation ----------------------
 
-void ClothNode::onForce(const ForceCommand::ConstPtr& msg) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (Status s = driver_->submit(*msg); !s) reject("force", s.error());
-}
+void ClothNode::onPin(const PinCommand::ConstPtr& msg) { inbox_->push(*msg); }
+
+void ClothNode::onForce(const ForceCommand::ConstPtr& msg) { inbox_->push(*msg); }
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  driver_->reset();
-  wallEpoch_ = ros::Time::now();
-  if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) driver_->setEpoch(wallEpoch_);
-  publishOutputs(StepReport(), 0.0, true);
-  res.success = true;
-  res.message = "reset to the initial state";
-  wake_.notify_all();
+  res.success = control_->reset();
+  res.message = res.success ? "reset to the initial state" : "not reset: the node is shutting down";
   return true;
 }
 
 bool ClothNode::onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  paused_ = true;
   res.success = true;
-  res.message = "paused at t = " + std::to_string(driver_->simulator().time()) + " s";
+  res.message = control_->pause();
   return true;
 }
 
 bool ClothNode::onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (paused_) {
-    // Real time restarts from here: the pause is not made up for. A recorder that subscribed
-    // while we were paused gets the current state first.
-    wallEpoch_ = ros::Time::now() - ros::Duration(driver_->simulator().time() / realTimeFactor_);
-    if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
-      driver_->setEpoch(wallEpoch_);
-    }
-    publishOutputs(StepReport(), 0.0, true);
-  }
-  paused_ = false;
   res.success = true;
-  res.message = "running";
-  wake_.notify_all();
+  res.message = control_->resume();
   return true;
 }
 
 bool ClothNode::onStep(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!paused_) {
-    res.success = false;
-    res.message = "~step advances a paused simulation; call ~pause first";
-    return true;
-  }
-  ++stepRequests_;
-  res.success = true;
-  res.message = "stepping to t = " +
-                std::to_string(driver_->simulator().time() + driver_->simulator().settings().dt) + " s";
-  wake_.notify_all();
+  const Expected<std::string> r = control_->step();
+  res.success = r.ok();
+  res.message = r ? *r : r.error();
   return true;
 }
 
 bool ClothNode::onAdvance(Advance::Request& req, Advance::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!paused_) {
-    res.success = false;
-    res.message = "~advance steps a paused simulation; call ~pause first";
-  } else {
-    const std::uint32_t steps = std::max<std::uint32_t>(req.steps, 1);
-    res.success = true;
-    for (std::uint32_t k = 0; k < steps; ++k) {
-      stepOnce();
-      if (!driver_->simulator().lastReport().ok) {
-        res.success = false;
-        res.message = "step " + std::to_string(k + 1) + " of " + std::to_string(steps) +
-                      " failed: " + driver_->simulator().lastReport().error;
-        break;
-      }
-    }
-    if (res.success) res.message = "advanced " + std::to_string(steps) + " steps";
-    // The caller gets the state it stopped at, whatever the publish rate.
-    if (driver_->stepIndex() % publishEvery_ != 0) {
-      publishOutputs(driver_->simulator().lastReport(), stepWallTime_, true);
-    }
+  const AdvanceResult r = control_->advance(req.steps);
+  res.success = r.success;
+  res.message = r.message;
+  res.steps_taken = r.stepsTaken;
+  res.step = r.step;
+  res.time = r.time;
+  res.state_hash = r.stateHash;
+  return true;
+}
+
+// --- The run loop ---------------------------------------------------------------------------------
+
+void ClothNode::takeCommands() {
+  for (const Command& c : inbox_->take()) {
+    const Status s = std::visit([this](const auto& command) { return driver_->submit(command); }, c);
+    if (!s) reject(topicOf(c), s.error());
   }
-  res.step = driver_->stepIndex();
-  res.time = driver_->simulator().time();
-  res.state_hash = stateHash(driver_->simulator().state().x, driver_->simulator().state().v);
+  for (CommandTopic topic : {CommandTopic::Pin, CommandTopic::Force}) {
+    const std::uint64_t refused = inbox_->tally(topic).refused;
+    std::uint64_t& told = inboxRefusalsTold_[static_cast<std::size_t>(topic)];
+    if (refused == told) continue;
+    const std::string capacity = std::to_string(inbox_->capacity());
+    reject(topic, std::to_string(refused - told) + " commands refused on arrival: " + capacity +
+                      " were already waiting to be checked (max_pending_commands = " + capacity + ")");
+    told = refused;
+  }
+}
+
+void ClothNode::tellTfRefusals() {
+  const TfIntake::Refusals refused = tfIntake_->takeRefusals();
+  if (refused.count == 0) return;
+  lastProblem_ = refused.latest;
+  diagnosticsSoon_ = true;
+  warn("tf refused", std::to_string(refused.count) + " transform(s) refused, the latest: " + refused.latest,
+       "times transforms were refused");
+}
+
+void ClothNode::reject(CommandTopic topic, const std::string& why) {
+  const std::string kind = std::string("~") + topicName(topic) + " rejected";
+  lastProblem_ = kind + ": " + why;
+  warn(kind, lastProblem_);
+  diagnosticsSoon_ = true;
+}
+
+void ClothNode::warn(const std::string& kind, const std::string& message, const std::string& label) {
+  const double now = ros::WallTime::now().toSec();
+  for (const std::string& line : warnings_.add(kind, message, now, label)) {
+    ROS_WARN_STREAM("fem_cloth_node: " << line);
+  }
+}
+
+void ClothNode::error(const std::string& kind, const std::string& message, const std::string& label) {
+  const double now = ros::WallTime::now().toSec();
+  for (const std::string& line : errors_.add(kind, message, now, label)) {
+    ROS_ERROR_STREAM("fem_cloth_node: " << line);
+  }
+}
+
+void ClothNode::flushLogs() {
+  const double now = ros::WallTime::now().toSec();
+  for (const std::string& line : warnings_.flush(now)) ROS_WARN_STREAM("fem_cloth_node: " << line);
+  for (const std::string& line : errors_.flush(now)) ROS_ERROR_STREAM("fem_cloth_node: " << line);
+}
+
+CommandCounts ClothNode::commandCounts(CommandTopic topic) const {
+  return combinedCounts(inbox_->tally(topic), driver_->commandCounts(topic));
+}
+
+void ClothNode::doReset() {
+  driver_->reset();
+  tfWait_->clear();
+  dueOrigin_ = ros::Time::now().toSec();
+  if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) driver_->setEpoch(ros::Time::now());
+  lastReport_ = StepReport();
+  publishOutputs(lastReport_, 0.0, true);
+  control_->resetDone();
+}
+
+void ClothNode::restartRealTime() {
+  // Real time restarts from here: the pause is not made up for. A recorder that subscribed
+  // while we were paused gets the current state first.
+  dueOrigin_ = ros::Time::now().toSec() - driver_->simulator().time() / realTimeFactor_;
+  if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
+    driver_->setEpoch(ros::Time::now());
+  }
+  publishOutputs(StepReport(), 0.0, true);
+}
+
+void ClothNode::finishAdvance() {
+  // The caller gets the state it stopped at, whatever the publish rate.
+  if (driver_->stepIndex() % publishEvery_ != 0) publishOutputs(lastReport_, stepWallTime_, true);
+  const State& s = driver_->simulator().state();
+  control_->finishAdvance(driver_->stepIndex(), driver_->simulator().time(), stateHash(s.x, s.v));
+}
+
+double ClothNode::secondsUntilDue() const {
+  // The step that ends at simulation time t + dt is due at dueOrigin + (t + dt) / factor + lag.
+  const double dt = driver_->simulator().settings().dt;
+  return dueOrigin_ + (driver_->simulator().time() + dt) / realTimeFactor_ + stepLag_ -
+         ros::Time::now().toSec();
+}
+
+bool ClothNode::transformsReady() {
+  std::vector<std::string> gaveUp;
+  switch (tfWait_->check(driver_->framesNotReady(), ros::WallTime::now().toSec(), &gaveUp)) {
+    case TransformWait::Verdict::Wait:
+      return false;
+    case TransformWait::Verdict::TimedOut: {
+      std::string frames;
+      for (const std::string& f : gaveUp) frames += (frames.empty() ? "'" : ", '") + f + "'";
+      warn("tf wait", "stepping without the transforms of frame " + frames + " at exactly the step's "
+           "times (waited tf_timeout = " + numberText(tfTimeout_) + " s): using the newest; a "
+           "replay of this run may differ. Not waiting for it again until it gets a new transform");
+      return true;
+    }
+    case TransformWait::Verdict::Step:
+      break;
+  }
   return true;
 }
 
 void ClothNode::stepOnce() {
   const ros::WallTime begin = ros::WallTime::now();
-  const StepReport report = driver_->step();
+  lastReport_ = driver_->step();
+  const StepReport& report = lastReport_;
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
   // The commands as they took effect, stamped with their step: what a recording replays.
   for (const PinCommand& c : driver_->takeAppliedPins()) appliedPinPub_.publish(c);
   for (const ForceCommand& c : driver_->takeAppliedForces()) appliedForcePub_.publish(c);
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
-    ROS_WARN_STREAM_THROTTLE(2.0, "fem_cloth_node: " << w);
+    diagnosticsSoon_ = true;
+    warn(WarningThrottle::kindOf(w), w, "similar warnings");
   }
   if (!report.ok) {
     ++failedSteps_;
     lastProblem_ = report.error;
-    ROS_ERROR_STREAM_THROTTLE(2.0, "fem_cloth_node: " << report.error);
+    diagnosticsSoon_ = true;
+    error(WarningThrottle::kindOf(report.error), report.error, "failed steps");
   }
   // Real-time factor over windows of about a second of wall time.
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
@@ -351,7 +459,8 @@ void ClothNode::stepOnce() {
     realTimeFactorMeasured_ = (driver_->simulator().time() - rtfWindowSimStart_) / window;
     rtfWindowStart_ = ros::WallTime::now();
     rtfWindowSimStart_ = driver_->simulator().time();
-    if (timeMode_ == TimeMode::RealTime && realTimeFactorMeasured_ < 0.9 * realTimeFactor_) {
+    if (timeMode_ == TimeMode::RealTime && !control_->paused() &&
+        realTimeFactorMeasured_ < 0.9 * realTimeFactor_) {
       ROS_WARN_STREAM_THROTTLE(5.0, "fem_cloth_node: cannot keep up with real time: real-time factor "
                                         << realTimeFactorMeasured_ << " (a step takes "
                                         << 1e3 * stepWallTime_ << " ms for dt "
@@ -371,10 +480,17 @@ void ClothNode::publishClock() {
 
 void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool force) {
   const std::uint64_t step = driver_->stepIndex();
-  if (force || step % publishEvery_ == 0) {
+  const bool stateDue = force || step % publishEvery_ == 0;
+  const bool markerDue = force || step % markerEvery_ == 0;
+  if (stateDue) {
     statePub_.publish(driver_->stateMessage());
     if (wanted(energyPub_)) energyPub_.publish(driver_->energyMessage());
-    if (wanted(statsPub_)) statsPub_.publish(driver_->statsMessage(report, wallTime, realTimeFactorMeasured_));
+    if (wanted(statsPub_)) {
+      StepStats stats = driver_->statsMessage(report, wallTime, realTimeFactorMeasured_);
+      stats.pin_commands = toMsg(commandCounts(CommandTopic::Pin));
+      stats.force_commands = toMsg(commandCounts(CommandTopic::Force));
+      statsPub_.publish(stats);
+    }
     if (wanted(pinForcesPub_)) pinForcesPub_.publish(driver_->pinForcesMessage());
     if (wanted(pinWrenchPub_)) {
       for (const auto& w : driver_->pinWrenchMessages()) pinWrenchPub_.publish(w);
@@ -388,27 +504,24 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
       }
     }
   }
-  if (force || step % markerEvery_ == 0) {
-    if (wanted(markerPub_)) markerPub_.publish(driver_->markerMessage());
-    if (obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
-      obstacleMarkerPub_.publish(driver_->obstacleMarkers());
-    }
+  if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
+    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
   }
+  perception_->publish(stateDue, markerDue);
   publishDiagnostics(false);
 }
 
 void ClothNode::publishDiagnostics(bool force) {
   const ros::WallTime now = ros::WallTime::now();
-  if (!force && (now - lastDiagnostics_).toSec() < 1.0) return;
+  const double since = (now - lastDiagnostics_).toSec();
+  if (!force && since < 1.0 && !(diagnosticsSoon_ && since >= 0.1)) return;
   lastDiagnostics_ = now;
+  diagnosticsSoon_ = false;
   diagnostic_msgs::DiagnosticArray array;
   array.header.stamp = driver_->now();
   diagnostic_msgs::DiagnosticStatus status;
   status.name = ros::this_node::getName();
   status.hardware_id = "fem_cloth";
-  status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (rejected_ > 0 || !lastProblem_.empty()) ? diagnostic_msgs::DiagnosticStatus::WARN
-                                                           : diagnostic_msgs::DiagnosticStatus::OK;
   status.message = lastProblem_.empty() ? "running" : lastProblem_;
   auto add = [&status](const std::string& key, const std::string& value) {
     diagnostic_msgs::KeyValue kv;
@@ -419,86 +532,100 @@ void ClothNode::publishDiagnostics(bool force) {
   add("simulation time (s)", std::to_string(driver_->simulator().time()));
   add("step", std::to_string(driver_->stepIndex()));
   add("real-time factor", std::to_string(realTimeFactorMeasured_));
-  add("rejected commands", std::to_string(rejected_));
+  std::uint64_t rejected = 0;
+  for (CommandTopic topic : {CommandTopic::Pin, CommandTopic::Force}) {
+    const CommandCounts c = commandCounts(topic);
+    const std::string name = std::string("~") + topicName(topic) + " commands ";
+    add(name + "received", std::to_string(c.received));
+    add(name + "rejected", std::to_string(c.rejected));
+    add(name + "applied", std::to_string(c.applied));
+    add(name + "pending", std::to_string(c.pending));
+    add(name + "discarded by ~reset", std::to_string(c.discarded));
+    rejected += c.rejected;
+  }
+  add("rejected commands", std::to_string(rejected));
   add("failed steps", std::to_string(failedSteps_));
-  add("paused", paused_ ? "true" : "false");
+  add("paused", control_->paused() ? "true" : "false");
+  status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
+                 : (rejected > 0 || !lastProblem_.empty()) ? diagnostic_msgs::DiagnosticStatus::WARN
+                                                          : diagnostic_msgs::DiagnosticStatus::OK;
   array.status.push_back(status);
   diagnosticsPub_.publish(array);
 }
 
-void ClothNode::run() {
-  ros::AsyncSpinner spinner(2);
-  spinner.start();
+void ClothNode::begin() {
   // Time origin: wait for a valid ROS time (with use_sim_time, the first /clock).
   if (timeMode_ == TimeMode::RealTime) {
     while (ros::ok() && ros::Time::now().isZero()) ros::WallDuration(0.001).sleep();
   }
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    wallEpoch_ = ros::Time::now();
-    const ros::Time epoch =
-        hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : wallEpoch_);
-    driver_->setEpoch(epoch);
-    if (hasStartTime_ && timeMode_ == TimeMode::RealTime) wallEpoch_ = epoch;
-    rtfWindowStart_ = ros::WallTime::now();
-    meshPub_.publish(driver_->meshMessage());
-    // Latched: RViz started later, or a paused node, still shows where the obstacles are.
-    if (obstacleMarkerPub_) obstacleMarkerPub_.publish(driver_->obstacleMarkers());
-    std_msgs::String sceneMsg;
-    sceneMsg.data = sceneText_;
-    scenePub_.publish(sceneMsg);
-    publishClock();
-    publishOutputs(StepReport(), 0.0, true);
+  const ros::Time now = ros::Time::now();
+  const ros::Time epoch =
+      hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : now);
+  driver_->setEpoch(epoch);
+  dueOrigin_ = (hasStartTime_ && timeMode_ == TimeMode::RealTime ? epoch : now).toSec();
+  rtfWindowStart_ = ros::WallTime::now();
+  meshPub_.publish(driver_->meshMessage());
+  // Latched: RViz started later, or a paused node, still shows where the obstacles are.
+  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+  std_msgs::String sceneMsg;
+  sceneMsg.data = sceneText_;
+  scenePub_.publish(sceneMsg);
+  publishClock();
+  publishOutputs(StepReport(), 0.0, true);
+}
+
+void ClothNode::turn() {
+  // Commands that arrived before a ~reset are dropped by it: take them first.
+  takeCommands();
+  tellTfRefusals();
+  flushLogs();
+  const RunControl::Boundary b = control_->boundary();
+  if (b.advanceEnded) finishAdvance();
+  if (b.reset) {
+    takeCommands();  // those that came in since the first look are older than the reset too
+    doReset();
+  }
+  if (b.resumed) restartRealTime();
+  if (!b.running && !b.stepWanted) {
+    publishDiagnostics(false);
+    control_->wait(0.05);
+    return;
+  }
+  if (b.running && timeMode_ == TimeMode::RealTime) {
+    const double wait = secondsUntilDue();
+    if (wait > 0.0) {
+      // On simulation time, ROS time moves in jumps of /clock: look again soon.
+      control_->wait(std::min(wait, ros::Time::isSimTime() ? 0.001 : 0.05));
+      return;
+    }
+  }
+  // Wait (up to tf_timeout) for the transforms this step needs at exactly its times, so that a
+  // replay of the run sees the same frames.
+  if (!transformsReady()) {
+    control_->wait(0.001);
+    return;
   }
   const double dt = driver_->simulator().settings().dt;
-  while (ros::ok()) {
-    std::unique_lock<std::mutex> lock(mutex_);
-    if (paused_ && stepRequests_ == 0) {
-      wake_.wait_for(lock, std::chrono::milliseconds(50));
-      continue;
-    }
-    if (!paused_ && timeMode_ == TimeMode::RealTime) {
-      // The step that ends at simulation time t + dt is due at wallEpoch + (t + dt) / factor.
-      const ros::Time due = wallEpoch_ +
-                            ros::Duration((driver_->simulator().time() + dt) / realTimeFactor_ +
-                                          stepLag_);
-      const ros::Time now = ros::Time::now();
-      if (now < due) {
-        lock.unlock();
-        const double wait = std::min((due - now).toSec(), 0.05);
-        if (ros::Time::isSimTime()) {
-          ros::WallDuration(std::min(wait, 0.001)).sleep();
-        } else {
-          ros::WallDuration(wait).sleep();
-        }
-        continue;
-      }
-    }
-    // Wait (up to tf_timeout) for the transforms this step needs at exactly its times, so that
-    // a replay of the run sees the same frames.
-    std::string missing;
-    if (!driver_->transformsReady(&missing)) {
-      if (tfWaitStart_.isZero()) tfWaitStart_ = ros::WallTime::now();
-      if ((ros::WallTime::now() - tfWaitStart_).toSec() < tfTimeout_) {
-        lock.unlock();
-        ros::WallDuration(0.001).sleep();
-        continue;
-      }
-      ROS_WARN_STREAM_THROTTLE(2.0, "fem_cloth_node: stepping without " << missing
-                                        << " (waited tf_timeout = " << tfTimeout_
-                                        << " s): using the newest transform; a replay of this "
-                                           "run may differ");
-    }
-    tfWaitStart_ = ros::WallTime();
-    if (paused_) --stepRequests_;
-    stepOnce();
-    if (!driver_->simulator().lastReport().ok) {
-      // A failing step leaves the state unchanged: do not spin on it.
-      lock.unlock();
-      ros::WallDuration(dt).sleep();
-    }
-  }
-  spinner.stop();
+  if (!control_->beginStep(driver_->simulator().time() + dt)) return;
+  stepOnce();
+  control_->endStep(driver_->stepIndex(), driver_->simulator().time(),
+                    lastReport_.ok ? std::string() : lastReport_.error);
+  // A failing step leaves the state unchanged: do not spin on it.
+  if (!lastReport_.ok && b.running) control_->wait(dt);
+}
+
+void ClothNode::run() {
+  ros::AsyncSpinner spinner(2);                           // commands and the quick services
+  ros::AsyncSpinner blockingSpinner(2, &blockingQueue_);  // ~advance and ~reset
+  spinner.start();
+  blockingSpinner.start();
+  // However run() ends (shutdown, or an exception): the services waiting for it answer.
+  struct Stop {
+    RunControl& control;
+    ~Stop() { control.shutdown(); }
+  } stop{*control_};
+  begin();
+  while (ros::ok()) turn();
 }
 
 }  // namespace fem_cloth

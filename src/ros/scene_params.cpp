@@ -37,6 +37,32 @@ YAML::Node toYaml(const XmlRpc::XmlRpcValue& value) {
   }
 }
 
+XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node) {
+  XmlRpc::XmlRpcValue out;
+  if (node.IsMap()) {
+    for (const auto& kv : node) out[kv.first.as<std::string>()] = toXmlRpc(kv.second);
+  } else if (node.IsSequence()) {
+    out.setSize(static_cast<int>(node.size()));
+    for (std::size_t k = 0; k < node.size(); ++k) out[static_cast<int>(k)] = toXmlRpc(node[k]);
+  } else if (node.IsScalar()) {
+    // As the YAML loader of rosparam types them: booleans, then integers, then doubles.
+    const std::string& text = node.Scalar();
+    bool b = false;
+    int i = 0;
+    double d = 0.0;
+    if (YAML::convert<bool>::decode(node, b)) {
+      out = b;
+    } else if (text.find_first_of(".eE") == std::string::npos && YAML::convert<int>::decode(node, i)) {
+      out = i;
+    } else if (YAML::convert<double>::decode(node, d)) {
+      out = d;
+    } else {
+      out = text;
+    }
+  }
+  return out;
+}
+
 void overlayYaml(YAML::Node base, const YAML::Node& overlay) {
   for (const auto& kv : overlay) {
     const std::string key = kv.first.as<std::string>();

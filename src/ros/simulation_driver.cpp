@@ -12,15 +12,12 @@
 #include <type_traits>
 
 #include "fem_cloth/core/membrane.h"
+#include "fem_cloth/ros/time_checks.h"
+#include "fem_cloth/ros/transform_wait.h"
 
 namespace fem_cloth {
 
 namespace {
-
-// A frame name as tf2 keys it: without a leading '/'.
-std::string tfFrameName(const std::string& frame) {
-  return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
-}
 
 bool finite(const geometry_msgs::Point& p) {
   return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
@@ -40,6 +37,13 @@ M vertexMessage(const VectorX& values, int d, Index i) {
   return m;
 }
 
+// Vertex i of a coordinate vector with d values per vertex as a 3D vector (z = 0 in 2D).
+Eigen::Vector3d vertexPoint(const VectorX& values, int d, Index i) {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  p.head(d) = values.segment(d * i, d);
+  return p;
+}
+
 Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertices) {
   std::set<std::uint32_t> seen;
   for (std::size_t k = 0; k < vertices.size(); ++k) {
@@ -56,23 +60,16 @@ Status checkVertices(const std::vector<std::uint32_t>& vertices, Index numVertic
   return Status::success();
 }
 
-// Blue (unstrained) through white to red (strain >= maxStrain).
-std_msgs::ColorRGBA strainColour(double strain, double maxStrain) {
-  const double u = std::clamp(strain / maxStrain, 0.0, 1.0);
-  std_msgs::ColorRGBA c;
-  c.a = 1.0f;
-  if (u < 0.5) {
-    const double w = 2.0 * u;
-    c.r = static_cast<float>(0.15 + 0.85 * w);
-    c.g = static_cast<float>(0.35 + 0.65 * w);
-    c.b = 1.0f;
-  } else {
-    const double w = 2.0 * (u - 0.5);
-    c.r = 1.0f;
-    c.g = static_cast<float>(1.0 - 0.8 * w);
-    c.b = static_cast<float>(1.0 - 0.85 * w);
+// "vertex 3" or "vertices 3, 7 and 12" (the first few of a long list, then how many more).
+std::string verticesText(const std::vector<Index>& vertices) {
+  constexpr std::size_t kListed = 6;
+  std::string text = vertices.size() == 1 ? "vertex " : "vertices ";
+  for (std::size_t k = 0; k < vertices.size() && k < kListed; ++k) {
+    if (k > 0) text += k + 1 == vertices.size() ? " and " : ", ";
+    text += std::to_string(vertices[k]);
   }
-  return c;
+  if (vertices.size() > kListed) text += " and " + std::to_string(vertices.size() - kListed) + " more";
+  return text;
 }
 
 }  // namespace
@@ -99,15 +96,25 @@ SimulationDriver::SimulationDriver(Simulation simulation, Scene scene, DriverSet
     : simulation_(std::move(simulation)),
       scene_(std::move(scene)),
       settings_(std::move(settings)),
-      tf_(tf) {}
+      tf_(tf),
+      pending_(settings_.maxPendingCommands) {}
 
 ros::Time SimulationDriver::stampOf(double simulationTime) const {
-  return settings_.epoch + ros::Duration(simulationTime);
+  // epoch + ros::Duration(simulationTime), bit for bit, without rostime's exception: step() stops
+  // before a state's stamp would leave the range, so the fallback is never a state's stamp.
+  const Expected<ros::Time> t = checkedTimeAfter(settings_.epoch, simulationTime, "simulation time");
+  return t ? *t : ros::TIME_MAX;
 }
 
-double SimulationDriver::commandTime(const ros::Time& stamp) const {
+Expected<double> SimulationDriver::commandTime(const ros::Time& stamp) const {
   if (stamp.isZero()) return -1.0;
-  return (stamp - settings_.epoch).toSec();
+  return checkedSecondsSince(stamp, settings_.epoch, "header.stamp");
+}
+
+CommandCounts SimulationDriver::commandCounts(CommandTopic topic) const {
+  CommandCounts c = counts_[static_cast<std::size_t>(topic)];
+  c.pending = pending_.size(topic);
+  return c;
 }
 
 bool SimulationDriver::isSimulationFrame(const std::string& frame) const {
@@ -148,11 +155,11 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
     if (latest.header.stamp.isZero()) return tf2::transformToEigen(latest);  // static transform
     if (at < latest.header.stamp) {
       ros::Time unavailable = at, available = latest.header.stamp;
-      while ((available - unavailable).toSec() > 1e-6) {
+      while (secondsBetween(available, unavailable) > 1e-6) {
         const ros::Time mid = unavailable + (available - unavailable) * 0.5;
         (tf_->canTransform(target, source, mid) ? available : unavailable) = mid;
       }
-      const double gap = (available - at).toSec();
+      const double gap = secondsBetween(available, at);
       if (gap <= settings_.tfTimeout) {
         if (inexact) {
           *inexact = "frame '" + frame + "' is not known yet at " + numberText(at.toSec()) +
@@ -166,7 +173,7 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
       }
       return std::nullopt;
     }
-    const double age = (at - latest.header.stamp).toSec();
+    const double age = secondsBetween(at, latest.header.stamp);
     if (age <= settings_.tfTimeout) {
       if (inexact) {
         *inexact = "frame '" + frame + "' is not known yet at " + numberText(at.toSec()) +
@@ -181,6 +188,8 @@ std::optional<Eigen::Isometry3d> SimulationDriver::transform(const std::string& 
     }
   } catch (const tf2::TransformException& e) {
     if (why) *why = "frame '" + frame + "' is not connected to '" + target + "': " + e.what();
+  } catch (const std::exception& e) {  // rostime's range errors, for transforms stamped far apart
+    if (why) *why = "frame '" + frame + "': tf failed at " + numberText(at.toSec()) + " s: " + e.what();
   }
   return std::nullopt;
 }
@@ -190,46 +199,56 @@ bool SimulationDriver::knownOrNeverWillBe(const std::string& frame, const ros::T
   if (tf_ == nullptr) return false;
   const std::string source = tfFrameName(frame), target = tfFrameName(settings_.frame);
   if (!tf_->_frameExists(source) || !tf_->_frameExists(target)) return false;
-  if (tf_->canTransform(target, source, at)) return true;
   try {
-    return at <= tf_->lookupTransform(target, source, ros::Time(0)).header.stamp;
-  } catch (const tf2::TransformException&) {
-    return false;  // not connected (yet)
+    if (tf_->canTransform(target, source, at)) return true;
+  } catch (const std::exception&) {  // rostime's range errors: transform() says what
+    return true;
   }
+  const std::optional<ros::Time> newest = newestTransform(*tf_, target, source);
+  return newest && at <= *newest;  // nullopt: not connected (yet)
 }
 
-bool SimulationDriver::transformsReady(std::string* missing) const {
+std::vector<std::pair<std::string, double>> SimulationDriver::neededTransforms() const {
   const double t = simulator().time();
   const double dt = simulator().settings().dt;
-  auto check = [&](const std::string& frame, double when) {
-    if (knownOrNeverWillBe(frame, stampOf(when))) return true;
-    if (missing != nullptr) {
-      *missing = "frame '" + frame + "' at t = " + numberText(when) + " s";
-    }
-    return false;
-  };
-  for (const Pending& p : pending_) {
-    if (p.time > t + 1e-9 * dt) break;
+  std::vector<std::pair<std::string, double>> needed;
+  for (const Command* c : pending_.due(t + 1e-9 * dt)) {
     const std::string& frame =
-        std::visit([](const auto& c) -> const std::string& { return c.header.frame_id; }, p.command);
-    const bool release = std::holds_alternative<PinCommand>(p.command) &&
-                         std::get<PinCommand>(p.command).action == PinCommand::RELEASE;
-    const bool clear = std::holds_alternative<ForceCommand>(p.command) &&
-                       std::get<ForceCommand>(p.command).action == ForceCommand::CLEAR;
+        std::visit([](const auto& command) -> const std::string& { return command.header.frame_id; }, *c);
+    const bool release = std::holds_alternative<PinCommand>(*c) &&
+                         std::get<PinCommand>(*c).action == PinCommand::RELEASE;
+    const bool clear = std::holds_alternative<ForceCommand>(*c) &&
+                       std::get<ForceCommand>(*c).action == ForceCommand::CLEAR;
     if (release || clear) continue;
-    if (!check(frame, t)) return false;
-    if (std::holds_alternative<PinCommand>(p.command) && !check(frame, t + dt)) return false;
+    needed.emplace_back(frame, t);
+    if (std::holds_alternative<PinCommand>(*c)) needed.emplace_back(frame, t + dt);
   }
-  for (const auto& [vertex, follow] : follow_) {
-    if (!check(follow.frame, t + dt)) return false;
-  }
+  for (const auto& [vertex, follow] : follow_) needed.emplace_back(follow.frame, t + dt);
   if (const ContactModel* contact = simulator().contact()) {
     for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
       const std::string& frame = contact->obstacle(k).frame;
-      if (!frame.empty() && !check(frame, t + dt)) return false;
+      if (!frame.empty()) needed.emplace_back(frame, t + dt);
     }
   }
+  return needed;
+}
+
+bool SimulationDriver::transformsReady(std::string* missing) const {
+  for (const auto& [frame, when] : neededTransforms()) {
+    if (knownOrNeverWillBe(frame, stampOf(when))) continue;
+    if (missing != nullptr) *missing = "frame '" + frame + "' at t = " + numberText(when) + " s";
+    return false;
+  }
   return true;
+}
+
+std::vector<std::string> SimulationDriver::framesNotReady() const {
+  std::vector<std::string> frames;
+  for (const auto& [frame, when] : neededTransforms()) {
+    if (std::find(frames.begin(), frames.end(), frame) != frames.end()) continue;
+    if (!knownOrNeverWillBe(frame, stampOf(when))) frames.push_back(frame);
+  }
+  return frames;
 }
 
 Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& stamp) const {
@@ -238,13 +257,22 @@ Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& s
   return Status::success();
 }
 
-void SimulationDriver::queue(Pending p) {
-  auto it = std::upper_bound(pending_.begin(), pending_.end(), p,
-                             [](const Pending& a, const Pending& b) { return a.time < b.time; });
-  pending_.insert(it, std::move(p));
+template <class C>
+Status SimulationDriver::submitCommand(const C& c) {
+  CommandCounts& counts = counts_[static_cast<std::size_t>(topicOf(Command(c)))];
+  ++counts.received;
+  // The stamp first: tf would throw on a time no ROS duration relates to its transforms.
+  const Expected<double> time = commandTime(c.header.stamp);
+  Status s = time ? check(c) : Status(Error{time.error()});
+  if (s) s = pending_.push(*time, c);
+  if (!s) ++counts.rejected;
+  return s;
 }
 
-Status SimulationDriver::submit(const PinCommand& c) {
+Status SimulationDriver::submit(const PinCommand& c) { return submitCommand(c); }
+Status SimulationDriver::submit(const ForceCommand& c) { return submitCommand(c); }
+
+Status SimulationDriver::check(const PinCommand& c) const {
   const Index n = simulator().model().numVertices();
   if (c.action > PinCommand::RELEASE) {
     return Error{"unknown action " + std::to_string(c.action) +
@@ -273,11 +301,10 @@ Status SimulationDriver::submit(const PinCommand& c) {
   if (c.action != PinCommand::RELEASE) {
     if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
   }
-  queue(Pending{commandTime(c.header.stamp), c});
   return Status::success();
 }
 
-Status SimulationDriver::submit(const ForceCommand& c) {
+Status SimulationDriver::check(const ForceCommand& c) const {
   const Index n = simulator().model().numVertices();
   if (c.action > ForceCommand::CLEAR) {
     return Error{"unknown action " + std::to_string(c.action) + " (APPLY = 0, CLEAR = 1)"};
@@ -300,7 +327,6 @@ Status SimulationDriver::submit(const ForceCommand& c) {
   } else if (!c.forces.empty()) {
     return Error{"CLEAR takes no forces, got " + std::to_string(c.forces.size())};
   }
-  queue(Pending{commandTime(c.header.stamp), c});
   return Status::success();
 }
 
@@ -321,25 +347,44 @@ Status SimulationDriver::apply(const PinCommand& c) {
   std::string why, inexact;
   const std::optional<Eigen::Isometry3d> T = transform(c.header.frame_id, now(), &why, &inexact);
   if (!T) return Error{why};
-  if (!inexact.empty()) warnings_.push_back("pin command: " + inexact);
-  const bool follows = !isSimulationFrame(c.header.frame_id);
+  std::vector<Index> vertices;
+  std::vector<Eigen::Vector3d> locals, targets;
   for (std::size_t k = 0; k < c.vertices.size(); ++k) {
     const Index v = static_cast<Index>(c.vertices[k]);
-    Eigen::Vector3d here = Eigen::Vector3d::Zero();
-    here.head(d) = sim.state().x.segment(d * v, d);
-    Eigen::Vector3d local;
-    if (c.action == PinCommand::PIN_AT_TARGETS) {
-      local = Eigen::Vector3d(c.targets[k].x, c.targets[k].y, c.targets[k].z);
-    } else {
-      local = T->inverse() * here;
-    }
+    const Eigen::Vector3d local = c.action == PinCommand::PIN_AT_TARGETS
+                                      ? Eigen::Vector3d(c.targets[k].x, c.targets[k].y, c.targets[k].z)
+                                      : Eigen::Vector3d(T->inverse() * vertexPoint(sim.state().x, d, v));
     Eigen::Vector3d target = *T * local;
     if (d == 2) target.z() = 0.0;
-    if (Status s = sim.pin(v, target); !s) return s;
+    vertices.push_back(v);
+    locals.push_back(local);
+    targets.push_back(target);
+  }
+  // Checked for every vertex before any is pinned: a command is applied whole or not at all.
+  if (Status s = checkJumps(vertices, targets); !s) return s;
+  if (!inexact.empty()) warnings_.push_back("pin command: " + inexact);
+  const bool follows = !isSimulationFrame(c.header.frame_id);
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    if (Status s = sim.pin(vertices[k], targets[k]); !s) return s;
     if (follows) {
-      follow_[v] = Follow{c.header.frame_id, local};
+      follow_[vertices[k]] = Follow{c.header.frame_id, locals[k]};
     } else {
-      follow_.erase(v);
+      follow_.erase(vertices[k]);
+    }
+  }
+  return Status::success();
+}
+
+Status SimulationDriver::checkJumps(const std::vector<Index>& vertices,
+                                    const std::vector<Eigen::Vector3d>& targets) const {
+  const Simulator& sim = simulator();
+  for (std::size_t k = 0; k < vertices.size(); ++k) {
+    const double jump = (targets[k] - vertexPoint(sim.state().x, sim.dim(), vertices[k])).norm();
+    if (!(jump <= settings_.maxPinJump)) {
+      return Error{"the target of vertex " + std::to_string(vertices[k]) + " is " + numberText(jump) +
+                   " m from where the vertex is (max_pin_jump = " + numberText(settings_.maxPinJump) +
+                   " m): a pin would move it there within one step; pin it where it is and move "
+                   "the target in smaller steps"};
     }
   }
   return Status::success();
@@ -365,23 +410,31 @@ Status SimulationDriver::apply(const ForceCommand& c) {
 }
 
 void SimulationDriver::followFrames(double endTime) {
-  const int d = simulator().dim();
-  for (const auto& [vertex, follow] : follow_) {
-    std::string why;
-    std::string inexact;
-    const std::optional<Eigen::Isometry3d> T =
-        transform(follow.frame, stampOf(endTime), &why, &inexact);
-    if (!T) {
-      warnings_.push_back("pin of vertex " + std::to_string(vertex) + " keeps its last target: " + why);
+  // One lookup per frame. A frame that fails (stale: its publisher has stopped) or that would
+  // make a pin jump loses its followers; they stay pinned where they are, in the simulation frame.
+  std::map<std::string, std::vector<Index>> byFrame;
+  for (const auto& [vertex, follow] : follow_) byFrame[follow.frame].push_back(vertex);
+  for (const auto& [frame, vertices] : byFrame) {
+    std::string why, inexact;
+    std::optional<Eigen::Isometry3d> T = transform(frame, stampOf(endTime), &why, &inexact);
+    std::vector<Eigen::Vector3d> targets;
+    for (Index v : vertices) {
+      if (!T) break;
+      targets.push_back(*T * follow_.at(v).local);
+      if (simulator().dim() == 2) targets.back().z() = 0.0;
+    }
+    Status moved = T ? checkJumps(vertices, targets) : Status(Error{why});
+    if (!moved) {
+      for (Index v : vertices) follow_.erase(v);
+      warnings_.push_back("the pins of " + verticesText(vertices) + " stop following frame '" + frame +
+                          "' and stay where they are: " + moved.error());
       continue;
     }
     if (!inexact.empty()) {
-      warnings_.push_back("pin of vertex " + std::to_string(vertex) + ": " + inexact +
+      warnings_.push_back("the pins of " + verticesText(vertices) + ": " + inexact +
                           " (a replay of this run may differ)");
     }
-    Eigen::Vector3d target = *T * follow.local;
-    if (d == 2) target.z() = 0.0;
-    simulator().pin(vertex, target);
+    for (std::size_t k = 0; k < vertices.size(); ++k) simulator().pin(vertices[k], targets[k]);
   }
 }
 
@@ -389,24 +442,35 @@ StepReport SimulationDriver::step() {
   Simulator& sim = simulator();
   const double t = sim.time();
   const double dt = sim.settings().dt;
-  while (!pending_.empty() && pending_.front().time <= t + 1e-9 * dt) {
-    Pending p = std::move(pending_.front());
-    pending_.pop_front();
-    const Status s = std::visit([this](const auto& c) { return apply(c); }, p.command);
+  // Every state is stamped with its ROS time: a run stops before that would leave the range.
+  if (Expected<ros::Time> end = checkedTimeAfter(settings_.epoch, t + dt, "the end of the step at simulation time");
+      !end) {
+    StepReport refused;
+    refused.ok = false;
+    refused.retryable = false;
+    refused.error = end.error();
+    return refused;
+  }
+  for (Command& c : pending_.takeDue(t + 1e-9 * dt)) {
+    CommandCounts& counts = counts_[static_cast<std::size_t>(topicOf(c))];
+    const Status s = std::visit([this](const auto& command) { return apply(command); }, c);
     if (!s) {
-      warnings_.push_back("command could not be applied at t = " + numberText(t) + " s: " + s.error());
+      ++counts.rejected;
+      warnings_.push_back(std::string("~") + topicName(topicOf(c)) +
+                          " command could not be applied at t = " + numberText(t) + " s: " + s.error());
       continue;
     }
+    ++counts.applied;
     std::visit(
-        [this, t](auto c) {
-          c.header.stamp = stampOf(t);
-          if constexpr (std::is_same_v<decltype(c), PinCommand>) {
-            appliedPins_.push_back(std::move(c));
+        [this, t](auto command) {
+          command.header.stamp = stampOf(t);
+          if constexpr (std::is_same_v<decltype(command), PinCommand>) {
+            appliedPins_.push_back(std::move(command));
           } else {
-            appliedForces_.push_back(std::move(c));
+            appliedForces_.push_back(std::move(command));
           }
         },
-        p.command);
+        std::move(c));
   }
   if (Status s = simulation_.script.applyDue(sim); !s) warnings_.push_back(s.error());
   followFrames(t + dt);
@@ -446,7 +510,8 @@ void SimulationDriver::followObstacleFrames(double time, double endTime) {
 void SimulationDriver::reset() {
   simulator().reset();
   simulation_.script.rewind();
-  pending_.clear();
+  const std::array<std::uint64_t, kCommandTopics> dropped = pending_.clear();
+  for (std::size_t k = 0; k < kCommandTopics; ++k) counts_[k].discarded += dropped[k];
   follow_.clear();
   obstacleFrame_.clear();
   appliedPins_.clear();
@@ -547,34 +612,9 @@ StepStats SimulationDriver::statsMessage(const StepReport& r, double wallTime,
   msg.min_area_ratio = minAreaRatio(simulator().model().mesh(), simulator().model().rest(),
                                     simulator().state().x);
   msg.contacts = static_cast<std::uint32_t>(std::max(r.contacts, 0));
+  msg.pin_commands = toMsg(commandCounts(CommandTopic::Pin));
+  msg.force_commands = toMsg(commandCounts(CommandTopic::Force));
   return msg;
-}
-
-visualization_msgs::Marker SimulationDriver::markerMessage() {
-  const Mesh& mesh = simulator().model().mesh();
-  const VectorX& x = simulator().state().x;
-  const int d = mesh.dim;
-  triangleStrains(mesh, simulator().model().rest(), x, strains_);
-  visualization_msgs::Marker m;
-  m.header.stamp = now();
-  m.header.frame_id = settings_.frame;
-  m.ns = "cloth";
-  m.id = 0;
-  m.type = visualization_msgs::Marker::TRIANGLE_LIST;
-  m.action = visualization_msgs::Marker::ADD;
-  m.pose.orientation.w = 1.0;
-  m.scale.x = m.scale.y = m.scale.z = 1.0;
-  m.color.a = 1.0f;
-  m.points.resize(3 * mesh.triangles.size());
-  m.colors.resize(3 * mesh.triangles.size());
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const std_msgs::ColorRGBA c = strainColour(strains_[t], settings_.strainColorMax);
-    for (int k = 0; k < 3; ++k) {
-      m.points[3 * t + k] = vertexMessage<geometry_msgs::Point>(x, d, mesh.triangles[t][k]);
-      m.colors[3 * t + k] = c;
-    }
-  }
-  return m;
 }
 
 PinForces SimulationDriver::pinForcesMessage() const {
@@ -605,9 +645,7 @@ std::vector<geometry_msgs::WrenchStamped> SimulationDriver::pinWrenchMessages() 
       frames[frame] = *T;
       sums[frame] = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     }
-    Eigen::Vector3d f = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
-    f.head(d) = reactions.segment(d * v, d);
-    p.head(d) = simulator().state().x.segment(d * v, d);
+    const Eigen::Vector3d f = vertexPoint(reactions, d, v), p = vertexPoint(simulator().state().x, d, v);
     auto& [force, torque] = sums[frame];
     force += f;
     torque += (p - frames[frame].translation()).cross(f);

@@ -15,9 +15,13 @@
 // Writes CSV files to --out (scripts/report plots them): work_precision.csv, error_over_time.csv,
 // references.csv, orders.csv, targets.csv, stability.csv and summary.txt (also printed), and
 // every scene it runs to scenes/*.yaml (fem_cloth_sim --scene runs any of them by hand).
+// The stability cells run here one after the other, or as tasks of fem_cloth_batch's runner on
+// Dask (scripts/report): --list-cells, --cells FIRST:LAST --cell-results FILE for each task, then
+// --from-cell-results DIR for the report itself.
 // Exit status: 0 done, 2 bad command line or inputs, 3 a reference run failed, 4 a cell or run
 // was non-finite.
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -29,12 +33,9 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <atomic>
 #include <map>
-#include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/scene.h"
@@ -58,7 +59,10 @@ struct Options {
   std::vector<std::string> integrators, scenes, cases, materials, stiffness;
   std::vector<double> dts;  // stability: only these steps
   std::vector<std::string> overrides;  // work precision: key=value on every scene
-  int jobs = 1;             // stability: cells run in parallel
+  std::string listCells;        // stability: write the cells of the selection (JSON) and stop
+  std::string cellRange;        // stability: run only cells FIRST:LAST ...
+  std::string cellResults;      // ... and write their results here (JSON), nothing else
+  std::string fromCellResults;  // stability: the cells' results from this folder, not run here
   int repeats = 3;
   double repeatBudget = 2.0;
   double referenceResolution = 0.25;
@@ -446,130 +450,258 @@ struct CellRun {
   CellResult result;
 };
 
-int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
+// The cells of the selection, in the order of stability.csv (the runner's tasks name them by
+// their index in it).
+struct StabilityPlan {
   std::vector<std::string> cases, materials, integrators;
   std::vector<Stiffness> levels;
   std::vector<double> dts;
+  std::vector<CellRun> cells;
+  double totalWeight = 0.0;  // steps to simulate
+};
+
+int planStability(const Options& opt, StabilityPlan& plan) {
   for (const std::string& c : extremeCaseNames()) {
-    if (selected(opt.cases, c)) cases.push_back(c);
+    if (selected(opt.cases, c)) plan.cases.push_back(c);
   }
   for (const std::string& m : materialNames()) {
-    if (selected(opt.materials, m)) materials.push_back(m);
+    if (selected(opt.materials, m)) plan.materials.push_back(m);
   }
   for (const std::string& i : integratorNames()) {
-    if (selected(opt.integrators, i)) integrators.push_back(i);
+    if (selected(opt.integrators, i)) plan.integrators.push_back(i);
   }
   for (const Stiffness& l : stiffnessLevels()) {
-    if (selected(opt.stiffness, l.name)) levels.push_back(l);
+    if (selected(opt.stiffness, l.name)) plan.levels.push_back(l);
   }
   for (double dt : stabilityDts()) {
     if (opt.dts.empty() || std::any_of(opt.dts.begin(), opt.dts.end(),
                                        [&](double d) { return std::abs(d - dt) <= 1e-9 * dt; })) {
-      dts.push_back(dt);
+      plan.dts.push_back(dt);
     }
   }
   if (opt.small) {
     // The smoke test: two cases, two materials, cotton, the two largest steps.
-    if (opt.cases.empty()) cases = {"pull_corner", "squash"};
-    if (opt.materials.empty()) materials = {"stvk", "neo_hookean"};
-    if (opt.stiffness.empty()) levels = {levels.front()};
-    if (opt.dts.empty()) dts = {1e-2, 1.0 / 30.0};
+    if (opt.cases.empty()) plan.cases = {"pull_corner", "squash"};
+    if (opt.materials.empty()) plan.materials = {"stvk", "neo_hookean"};
+    if (opt.stiffness.empty()) plan.levels = {plan.levels.front()};
+    if (opt.dts.empty()) plan.dts = {1e-2, 1.0 / 30.0};
   }
-  std::vector<CellRun> cells;
-  double totalWeight = 0.0;
-  for (const std::string& c : cases) {
+  for (const std::string& c : plan.cases) {
     Expected<YAML::Node> base = extremeCase(c, opt.grid);
     if (!base) {
       std::cerr << "fem_cloth_report: " << base.error() << '\n';
       return 2;
     }
     const double duration = (*base)["duration"].as<double>();
-    for (double dt : dts) {
+    for (double dt : plan.dts) {
       if (!wholeSteps(duration, dt)) {
         std::cerr << "fem_cloth_report: case " << c << ": dt = " << dt << " s does not divide its "
                   << "duration " << duration << " s\n";
         return 2;
       }
     }
-    for (const std::string& material : materials) {
-      for (const Stiffness& level : levels) {
-        for (const std::string& integrator : integrators) {
-          for (double dt : dts) {
+    for (const std::string& material : plan.materials) {
+      for (const Stiffness& level : plan.levels) {
+        for (const std::string& integrator : plan.integrators) {
+          for (double dt : plan.dts) {
             CellRun cell;
             cell.cell = Cell{c, material, level.name, integrator, dt};
             cell.level = level;
             cell.duration = duration;
-            cells.push_back(cell);
-            totalWeight += duration / dt;
+            plan.cells.push_back(cell);
+            plan.totalWeight += duration / dt;
           }
         }
       }
     }
   }
+  return 0;
+}
 
-  // Cells are independent simulations: --jobs workers take them in turn. Their wall times are
-  // only reported (a stability cell is not a timing measurement).
-  const int totalItems = static_cast<int>(cells.size());
+std::string cellName(const Cell& c) {
+  return c.caseName + " " + c.material + " " + c.stiffness + " " + c.integrator + " dt " + dtName(c.dt);
+}
+
+// Runs cells [first, last) one after the other. In parallel they go through fem_cloth_batch's
+// runner on Dask (scripts/report), one task per slice of cells (--cells, --cell-results); their
+// wall times are only reported (a stability cell is not a timing measurement).
+void runCells(const Options& opt, std::vector<CellRun>& cells, std::size_t first, std::size_t last) {
+  double totalWeight = 0.0, doneWeight = 0.0;
+  for (std::size_t i = first; i < last; ++i) totalWeight += cells[i].duration / cells[i].cell.dt;
   Progress progress("stability", totalWeight, !opt.quiet);
-  std::mutex mutex;
-  std::atomic<std::size_t> next{0};
-  double doneWeight = 0.0;
-  int doneItems = 0;
-  auto worker = [&]() {
-    for (std::size_t i; (i = next++) < cells.size();) {
-      CellRun& c = cells[i];
-      c.result = runCell(c.cell, opt.grid, opt.cellBudget);
-      const std::lock_guard<std::mutex> lock(mutex);
-      doneWeight += c.duration / c.cell.dt;
-      ++doneItems;
-      progress.update(doneWeight, doneItems, totalItems,
-                      c.cell.caseName + " " + c.cell.material + " " + c.cell.stiffness + " " +
-                          c.cell.integrator + " dt " + dtName(c.cell.dt));
-    }
-  };
-  std::vector<std::thread> threads;
-  for (int j = 1; j < opt.jobs; ++j) threads.emplace_back(worker);
-  worker();
-  for (std::thread& t : threads) t.join();
+  for (std::size_t i = first; i < last; ++i) {
+    CellRun& c = cells[i];
+    c.result = runCell(c.cell, opt.grid, opt.cellBudget);
+    doneWeight += c.duration / c.cell.dt;
+    progress.update(doneWeight, static_cast<int>(i + 1 - first), static_cast<int>(last - first),
+                    cellName(c.cell));
+  }
+}
 
-  std::ofstream csv(opt.out + "/stability.csv");
-  csv << "case,material,stiffness,youngs_modulus,poisson_ratio,integrator,dt,verdict,steps,"
+// The cell's row of stability.csv (after the header stabilityHeader()).
+const char* stabilityHeader() {
+  return "case,material,stiffness,youngs_modulus,poisson_ratio,integrator,dt,verdict,steps,"
          "total_steps,t_reached,rollbacks,max_substeps,substeps,newton_iterations,energy_growth,"
-         "min_j,min_j_end,max_stretch,wall_s,error\n";
+         "min_j,min_j_end,max_stretch,wall_s,error";
+}
+
+std::string stabilityRow(const CellRun& c) {
+  const RunResult& r = c.result.run;
+  const std::uint64_t totalSteps = static_cast<std::uint64_t>(std::llround(c.duration / c.cell.dt));
+  std::ostringstream row;
+  row << c.cell.caseName << ',' << c.cell.material << ',' << c.level.name << ','
+      << num(c.level.youngsModulus) << ',' << c.level.poissonRatio << ',' << c.cell.integrator
+      << ',' << num(c.cell.dt, 17) << ',' << c.result.verdict << ',' << r.steps << ',' << totalSteps
+      << ',' << num(r.simulated) << ',' << r.rollbacks << ',' << r.maxSubsteps << ','
+      << r.substeps << ',' << r.newtonIterations << ',' << num(r.energyGrowth) << ','
+      << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ','
+      << (std::isfinite(r.minJEnd) ? num(r.minJEnd) : "") << ',' << num(r.maxStretch) << ','
+      << num(r.wall) << ',' << csvText(r.error);
+  return row.str();
+}
+
+// ------------------------------------------------------------------------------------------------
+// Cells as runner tasks: the cell list, and each slice's results — per cell its verdict and its
+// row of stability.csv, as this program wrote them — read back in the end.
+// ------------------------------------------------------------------------------------------------
+using Json = nlohmann::ordered_json;
+
+Json cellIdentity(const CellRun& c, std::size_t index) {
+  return Json{{"index", index},          {"case", c.cell.caseName}, {"material", c.cell.material},
+              {"stiffness", c.cell.stiffness}, {"integrator", c.cell.integrator},
+              {"dt", c.cell.dt},          {"weight", c.duration / c.cell.dt}};
+}
+
+bool sameCell(const Json& j, const CellRun& c) {
+  return j.at("case") == c.cell.caseName && j.at("material") == c.cell.material &&
+         j.at("stiffness") == c.cell.stiffness && j.at("integrator") == c.cell.integrator &&
+         j.at("dt").get<double>() == c.cell.dt;
+}
+
+bool writeJson(const std::string& path, const Json& j) {
+  std::ofstream(path + ".partial") << j.dump(1) << '\n';
+  std::error_code ec;
+  std::filesystem::rename(path + ".partial", path, ec);
+  if (ec) std::cerr << "fem_cloth_report: cannot write '" << path << "': " << ec.message() << '\n';
+  return !ec;
+}
+
+// Every cell of the plan from the *.json files of a folder (each {"cells": [...]}, as --cells
+// writes them): each cell exactly once, the same cell as the plan has at that index.
+int readCellResults(const std::string& folder, StabilityPlan& plan, std::vector<std::string>& rows) {
+  rows.assign(plan.cells.size(), "");
+  std::vector<bool> seen(plan.cells.size(), false);
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    if (entry.path().extension() != ".json") continue;
+    try {
+      const Json file = Json::parse(std::ifstream(entry.path()));
+      for (const Json& j : file.at("cells")) {
+        const std::size_t i = j.at("index").get<std::size_t>();
+        if (i >= plan.cells.size() || !sameCell(j, plan.cells[i])) {
+          std::cerr << "fem_cloth_report: " << entry.path().string() << ": cell " << i
+                    << " is not a cell of this selection (another --cases, --materials, ... ?)\n";
+          return 2;
+        }
+        if (seen[i]) {
+          std::cerr << "fem_cloth_report: " << folder << ": cell " << i << " (" << cellName(plan.cells[i].cell)
+                    << ") has two results\n";
+          return 2;
+        }
+        plan.cells[i].result.verdict = j.at("verdict").get<std::string>();
+        rows[i] = j.at("row").get<std::string>();
+        seen[i] = true;
+      }
+    } catch (const Json::exception& e) {
+      std::cerr << "fem_cloth_report: " << entry.path().string() << ": not a cell result file (" << e.what() << ")\n";
+      return 2;
+    }
+  }
+  if (ec) {
+    std::cerr << "fem_cloth_report: cannot read the cell results in '" << folder << "': " << ec.message() << '\n';
+    return 2;
+  }
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    if (!seen[i]) {
+      std::cerr << "fem_cloth_report: " << folder << ": no result for cell " << i << " ("
+                << cellName(plan.cells[i].cell) << ")\n";
+      return 2;
+    }
+  }
+  return 0;
+}
+
+// stability.csv from the rows, and the summary's verdict counts.
+void writeStability(const Options& opt, const StabilityPlan& plan, const std::vector<std::string>& rows,
+                    std::ostream& summary, bool& nonFinite) {
+  std::ofstream csv(opt.out + "/stability.csv");
+  csv << stabilityHeader() << '\n';
+  for (const std::string& row : rows) csv << row << '\n';
   std::map<std::string, int> counts;
   std::map<std::string, std::map<std::string, int>> perIntegrator;
-  for (const CellRun& c : cells) {
-    const RunResult& r = c.result.run;
+  for (const CellRun& c : plan.cells) {
     const std::string& verdict = c.result.verdict;
     if (verdict == "non_finite") nonFinite = true;
     ++counts[verdict];
     ++perIntegrator[c.cell.integrator][verdict];
-    const std::uint64_t totalSteps = static_cast<std::uint64_t>(std::llround(c.duration / c.cell.dt));
-    csv << c.cell.caseName << ',' << c.cell.material << ',' << c.level.name << ','
-        << num(c.level.youngsModulus) << ',' << c.level.poissonRatio << ',' << c.cell.integrator
-        << ',' << num(c.cell.dt, 17) << ',' << verdict << ',' << r.steps << ',' << totalSteps
-        << ',' << num(r.simulated) << ',' << r.rollbacks << ',' << r.maxSubsteps << ','
-        << r.substeps << ',' << r.newtonIterations << ',' << num(r.energyGrowth) << ','
-        << (std::isfinite(r.minJ) ? num(r.minJ) : "") << ','
-        << (std::isfinite(r.minJEnd) ? num(r.minJEnd) : "") << ',' << num(r.maxStretch) << ','
-        << num(r.wall) << ',' << csvText(r.error) << '\n';
   }
 
   const std::vector<std::string>& verdicts = verdictNames();
-  summary << "== Stability matrix: " << totalItems << " cells (" << cases.size() << " cases x "
-          << materials.size() << " materials x " << levels.size() << " stiffnesses x "
-          << integrators.size() << " integrators x " << dts.size() << " steps)\n";
+  summary << "== Stability matrix: " << plan.cells.size() << " cells (" << plan.cases.size() << " cases x "
+          << plan.materials.size() << " materials x " << plan.levels.size() << " stiffnesses x "
+          << plan.integrators.size() << " integrators x " << plan.dts.size() << " steps)\n";
   summary << std::left << std::setw(20) << "";
   for (const std::string& v : verdicts) summary << std::setw(13) << v;
   summary << '\n' << std::setw(20) << "all";
   for (const std::string& v : verdicts) summary << std::setw(13) << counts[v];
   summary << '\n';
-  for (const std::string& i : integrators) {
+  for (const std::string& i : plan.integrators) {
     summary << std::setw(20) << i;
     for (const std::string& v : verdicts) summary << std::setw(13) << perIntegrator[i][v];
     summary << '\n';
   }
   summary << '\n';
+}
+
+// --list-cells and --cells: a runner's side of the stability matrix; otherwise every cell, run
+// here or read back from --from-cell-results, into stability.csv and the summary.
+int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
+  StabilityPlan plan;
+  if (int status = planStability(opt, plan); status != 0) return status;
+  if (!opt.listCells.empty()) {
+    Json list = Json::array();
+    for (std::size_t i = 0; i < plan.cells.size(); ++i) list.push_back(cellIdentity(plan.cells[i], i));
+    return writeJson(opt.listCells, Json{{"cells", list}}) ? 0 : 2;
+  }
+  if (!opt.cellRange.empty()) {
+    std::size_t first = 0, last = 0;
+    char colon = 0;
+    std::istringstream range(opt.cellRange);
+    if (!(range >> first >> colon >> last) || colon != ':' || !range.eof() || first >= last ||
+        last > plan.cells.size()) {
+      std::cerr << "fem_cloth_report: --cells must be FIRST:LAST with 0 <= FIRST < LAST <= "
+                << plan.cells.size() << " (the cells of this selection), got '" << opt.cellRange << "'\n";
+      return 2;
+    }
+    runCells(opt, plan.cells, first, last);
+    Json results = Json::array();
+    for (std::size_t i = first; i < last; ++i) {
+      if (plan.cells[i].result.verdict == "non_finite") nonFinite = true;
+      Json j = cellIdentity(plan.cells[i], i);
+      j["verdict"] = plan.cells[i].result.verdict;
+      j["row"] = stabilityRow(plan.cells[i]);
+      results.push_back(std::move(j));
+    }
+    return writeJson(opt.cellResults, Json{{"cells", results}}) ? 0 : 2;
+  }
+  std::vector<std::string> rows;
+  if (!opt.fromCellResults.empty()) {
+    if (int status = readCellResults(opt.fromCellResults, plan, rows); status != 0) return status;
+  } else {
+    runCells(opt, plan.cells, 0, plan.cells.size());
+    for (const CellRun& c : plan.cells) rows.push_back(stabilityRow(c));
+  }
+  writeStability(opt, plan, rows, summary, nonFinite);
   return 0;
 }
 
@@ -598,7 +730,15 @@ int main(int argc, char** argv) {
                  "reference step as a fraction of the scene's CFL bound 2/omega_max (default 0.25)");
   app.add_option("--duration", opt.duration, "work precision: simulated time (s) of every scene");
   app.add_option("--set", opt.overrides, "work precision: key.path=value on every scene (repeatable)");
-  app.add_option("--jobs,-j", opt.jobs, "stability cells run in parallel (default 1)")->check(CLI::PositiveNumber);
+  app.add_option("--list-cells", opt.listCells,
+                 "stability: write the selection's cells (index, case, material, stiffness, "
+                 "integrator, dt, weight) to this JSON file and stop");
+  app.add_option("--cells", opt.cellRange, "stability: run only cells FIRST:LAST of the selection "
+                 "(a runner task; with --cell-results)");
+  app.add_option("--cell-results", opt.cellResults, "with --cells: write their results to this JSON file");
+  app.add_option("--from-cell-results", opt.fromCellResults,
+                 "stability: read every cell's result from the JSON files in this folder (what "
+                 "--cells wrote) instead of running them");
   app.add_option("--repeats", opt.repeats, "timing repeats per run (median; fewer once a setting took 2 s)")
       ->check(CLI::PositiveNumber);
   app.add_option("--cell-budget", opt.cellBudget, "wall time (s) after which a stability cell stops");
@@ -621,6 +761,20 @@ int main(int argc, char** argv) {
       std::cerr << "fem_cloth_report: --integrators: unknown integrator '" << name << "'\n";
       return 2;
     }
+  }
+  // A runner's task (scripts/report, fem_cloth_batch report): cells only, no report files.
+  const bool cellTask = !opt.listCells.empty() || !opt.cellRange.empty();
+  if (cellTask) {
+    if (opt.study != "stability" || !opt.fromCellResults.empty() ||
+        (!opt.listCells.empty() && !opt.cellRange.empty()) || opt.cellRange.empty() != opt.cellResults.empty()) {
+      std::cerr << "fem_cloth_report: --list-cells FILE, or --cells FIRST:LAST with --cell-results FILE, "
+                   "go with --study stability alone\n";
+      return 2;
+    }
+    std::ostringstream unused;
+    bool nonFinite = false;
+    const int status = stability(opt, unused, nonFinite);
+    return status != 0 ? status : (nonFinite ? 4 : 0);
   }
   std::error_code ec;
   std::filesystem::create_directories(opt.out, ec);

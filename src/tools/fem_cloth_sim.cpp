@@ -3,11 +3,15 @@
 //   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
 //                 [--duration S] [--set key=value]... [--out DIR | --out FILE.bag] [--every N]
 //   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
+//   fem_cloth_sim --scene S [--set key=value]... --check [--write-scene FILE]
+//
+// --summary-json FILE also writes the summary for programs (fem_cloth_batch's index).
 //
 // Exit status: 0 success, 2 bad scene, bag or command line, 3 the simulation failed (the error
 // says why; CSV outputs hold everything up to the last good state, a bag is not written),
 // 4 with --verify: a recorded state was not reproduced bit for bit.
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <unistd.h>
 
@@ -24,6 +28,7 @@
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
+#include "fem_cloth/ros/simulation_driver.h"
 #include "fem_cloth/core/threads.h"
 
 using namespace fem_cloth;
@@ -43,6 +48,9 @@ struct Options {
   std::string commands;
   std::string node = "/fem_cloth_node";
   bool verify = false;
+  bool check = false;
+  std::string writeScene;
+  std::string summaryJson;
 };
 
 struct Totals {
@@ -105,6 +113,81 @@ void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stret
          << r.rollbacks << '\n';
 }
 
+// Written to PATH.partial and renamed: a file under the final name is always complete.
+bool writeTextFile(const std::string& path, const std::string& text) {
+  const std::string partial = path + ".partial";
+  std::ofstream file(partial);
+  file << text;
+  file.close();
+  std::error_code ec;
+  if (file) std::filesystem::rename(partial, path, ec);
+  if (!file || ec) {
+    std::filesystem::remove(partial, ec);
+    std::cerr << "fem_cloth_sim: cannot write '" << path << "'\n";
+    return false;
+  }
+  return true;
+}
+
+// --summary-json: the summary for programs, in SI units (J, s); state_hash is ClothState's hash
+// of the final positions and velocities (equal hashes: bit-identical states). Non-finite
+// numbers become null.
+using Json = nlohmann::ordered_json;
+
+Json energyJson(const EnergyReport& e) {
+  return Json{{"kinetic", e.kinetic},         {"strain", e.strain},
+              {"bending", e.bending},         {"gravity", e.gravity},
+              {"total", e.total},             {"external_work", e.externalWork},
+              {"pin_work", e.pinWork},        {"contact_work", e.contactWork},
+              {"dissipated", e.dissipated},   {"balance_error", e.balanceError}};
+}
+
+bool writeSummaryJson(const std::string& path, const Json& summary) {
+  return path.empty() || writeTextFile(path, summary.dump(2) + "\n");
+}
+
+// A scene file with its overrides applied, parsed and built as a run would build it.
+struct Loaded {
+  YAML::Node document;
+  Scene scene;
+  Simulation simulation;
+};
+
+Expected<Loaded> loadAndBuild(const std::string& path, const std::vector<std::string>& overrides) {
+  Expected<YAML::Node> doc = loadSceneDocument(path, overrides);
+  if (!doc) return Error{doc.error()};
+  Expected<Scene> scene = parseScene(*doc, path);
+  if (!scene) return Error{path + ": " + scene.error()};
+  Expected<Simulation> built = buildSimulation(*scene);
+  if (!built) return Error{path + ": " + built.error()};
+  return Loaded{std::move(doc).value(), std::move(scene).value(), std::move(built).value()};
+}
+
+// --check and --write-scene: the scene is validated exactly as a run would build it, without
+// stepping; --write-scene saves the document with the overrides applied, so that the run repeats
+// with `--scene FILE` alone (fem_cloth_batch writes its episodes this way).
+int checkScene(const Options& opt, const std::vector<std::string>& overrides) {
+  Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
+  if (!loaded) {
+    std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
+    return 2;
+  }
+  if (!opt.writeScene.empty() &&
+      !writeTextFile(opt.writeScene, sceneDocumentToString(loaded->document) + "\n")) {
+    return 2;
+  }
+  if (opt.check) {
+    const Scene& s = loaded->scene;
+    const Simulator& simulator = *loaded->simulation.simulator;
+    std::cout << "scene ok:     " << s.name << " (" << opt.scene << "), "
+              << simulator.model().numVertices() << " vertices, "
+              << simulator.model().mesh().numTriangles() << " triangles, "
+              << simulator.integrator().name() << ", dt " << s.dt << " s, duration "
+              << s.duration << " s\n";
+  }
+  return 0;
+}
+
 // Re-simulation of a recorded run, or a scene, into a bag.
 int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   BagRunOptions options;
@@ -145,6 +228,17 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
             << r.energy.total << ", balance error " << r.energy.balanceError << '\n';
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
   std::cout << "output:       " << opt.out << '\n';
+  const Json summary{{"status", "ok"},
+                     {"scene", r.scene},
+                     {"integrator", r.integrator},
+                     {"steps", r.steps},
+                     {"simulated_s", r.simulated},
+                     {"wall_s", r.wall},
+                     {"energy", energyJson(r.energy)},
+                     {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
+                     {"state_hash", r.finalHash},
+                     {"outputs", {opt.out}}};
+  if (!writeSummaryJson(opt.summaryJson, summary)) return 2;
   if (opt.verify && r.identical < r.compared) {
     std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
               << " recorded states were not reproduced\n";
@@ -186,6 +280,15 @@ int main(int argc, char** argv) {
   app.add_flag("--no-output", opt.noOutput, "write no files, only the summary");
   app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)");
   app.add_flag("--quiet,-q", opt.quiet, "no progress line");
+  app.add_flag("--check", opt.check,
+               "validate the scene with its overrides (parse and build it), print one line and "
+               "exit without running: 0 valid, 2 not");
+  app.add_option("--summary-json", opt.summaryJson,
+                 "also write the summary as JSON to this file (energies, stretch, final state "
+                 "hash; on a failed run the state reached and the error)");
+  app.add_option("--write-scene", opt.writeScene,
+                 "write the scene with the --set overrides applied to this YAML file (runs "
+                 "again with --scene FILE alone)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -212,6 +315,13 @@ int main(int argc, char** argv) {
     std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
     return 2;
   }
+  if ((opt.check || !opt.writeScene.empty()) && (opt.scene.empty() || !opt.commands.empty())) {
+    std::cerr << "fem_cloth_sim: --check and --write-scene need --scene (and no --commands)\n";
+    return 2;
+  }
+  if (!opt.writeScene.empty() || opt.check) {
+    if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
+  }
   const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
   if (!opt.commands.empty() || bagOut) {
     if (!bagOut) {
@@ -220,17 +330,13 @@ int main(int argc, char** argv) {
     }
     return runBag(opt, overrides);
   }
-  Expected<Scene> scene = loadScene(opt.scene, overrides);
-  if (!scene) {
-    std::cerr << "fem_cloth_sim: " << scene.error() << '\n';
+  Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
+  if (!loaded) {
+    std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
     return 2;
   }
-  Expected<Simulation> built = buildSimulation(*scene);
-  if (!built) {
-    std::cerr << "fem_cloth_sim: " << opt.scene << ": " << built.error() << '\n';
-    return 2;
-  }
-  Simulation& sim = *built;
+  const Scene* scene = &loaded->scene;
+  Simulation& sim = loaded->simulation;
   for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << w << '\n';
   Simulator& simulator = *sim.simulator;
   const double dt = scene->dt;
@@ -371,6 +477,22 @@ int main(int argc, char** argv) {
   }
   if (!opt.noOutput) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
+  Json outputs = Json::array();
+  if (!opt.noOutput) outputs = {outDir + "/trajectory.csv", outDir + "/energy.csv"};
+  const Json json{{"status", failure.empty() ? "ok" : "failed"},
+                  {"error", failure},
+                  {"scene", scene->name},
+                  {"integrator", simulator.integrator().name()},
+                  {"steps", totals.steps},
+                  {"total_steps", totalSteps},
+                  {"simulated_s", simulator.time()},
+                  {"wall_s", wall},
+                  {"energy", energyJson(e)},
+                  {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
+                  {"min_area_ratio", totals.minAreaRatio},
+                  {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
+                  {"outputs", outputs}};
+  if (!writeSummaryJson(opt.summaryJson, json)) return 2;
   if (!failure.empty()) {
     std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: " << failure << '\n';
     return 3;

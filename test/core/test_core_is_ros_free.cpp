@@ -1,4 +1,4 @@
-// The core and the scene reader must stay usable without ROS. On Debian the ROS headers live in
+// The core, the scene reader and the renderer must stay usable without ROS. On Debian the ROS headers live in
 // /usr/include, on the default include path, so the build alone would not notice a ROS include:
 // this test reads every core source and header and fails on any.
 #include <gtest/gtest.h>
@@ -14,7 +14,8 @@ namespace fs = std::filesystem;
 TEST(CoreIsRosFree, NoRosIncludes) {
   const fs::path root = FEM_CLOTH_SOURCE_DIR;
   const std::vector<fs::path> folders = {root / "include/fem_cloth/core", root / "src/core",
-                                         root / "include/fem_cloth/io", root / "src/io"};
+                                         root / "include/fem_cloth/io", root / "src/io",
+                                         root / "include/fem_cloth/render", root / "src/render"};
   // ROS client libraries, message packages and our generated messages.
   const std::regex ros(
       R"(#\s*include\s*[<"](ros/|tf2|rosbag|roscpp|std_msgs|std_srvs|geometry_msgs|shape_msgs|)"

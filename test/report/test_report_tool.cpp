@@ -1,5 +1,7 @@
-// fem_cloth_report run as a program: the small report end to end (the smoke test of
-// scripts/report), its outputs, the plot script, and a bad command line.
+// fem_cloth_report run as a program: the small report end to end as scripts/report runs it
+// (the stability cells as tasks of fem_cloth_batch's runner on a local 2-worker Dask cluster, the
+// rest in the report's process: the smoke test of scripts/report), its outputs, the plot script,
+// and a bad command line.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -63,7 +65,9 @@ class ReportTool : public ::testing::Test {
     scratch_ = new TempDir("fem_cloth_report_tool");
     out_ = scratch_->path("report");
     result_ = new ProgramResult(
-        runProgram(FEM_CLOTH_REPORT_EXE, {"--small", "--out", out_, "--jobs", "2", "-q"}, *scratch_));
+        runProgram("/usr/bin/python3", {FEM_CLOTH_BATCH, "report", "--workers", "2", "--quiet", "--report",
+                                        FEM_CLOTH_REPORT_EXE, "--", "--small", "--out", out_, "-q"},
+                   *scratch_));
   }
   static void TearDownTestSuite() {
     delete result_;

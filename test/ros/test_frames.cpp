@@ -2,6 +2,9 @@
 // interpolate; the node waits for transforms that can still arrive (later than the newest one),
 // not for those that never will (before the frame's first transform), which are served by the
 // nearest transform with a warning; beyond tf_timeout a command is refused, naming the frame.
+// A frame that stops or jumps loses its pins, which stay where they are. And the driver's
+// command checks that need no frame: far pin targets, stamps out of range, the pending cap and
+// the counts.
 #include <gtest/gtest.h>
 
 #include "fem_cloth/io/scene_yaml.h"
@@ -34,12 +37,23 @@ geometry_msgs::TransformStamped gripperAt(double t) {
   return tf;
 }
 
-SimulationDriver makeDriver(const tf2::BufferCore* tf) {
-  const Scene scene = *parseScene(YAML::Load(kScene));
+DriverSettings defaultSettings() {
   DriverSettings settings;
   settings.epoch = kEpoch;
   settings.tfTimeout = 1.0;
+  return settings;
+}
+
+SimulationDriver makeDriver(const tf2::BufferCore* tf, DriverSettings settings = defaultSettings()) {
+  const Scene scene = *parseScene(YAML::Load(kScene));
   return SimulationDriver(std::move(buildSimulation(scene).value()), scene, settings, tf);
+}
+
+// The first tests pin vertex 12 to the gripper's origin, 1.8 m from it: not a jump under test.
+SimulationDriver makeGripperDriver(const tf2::BufferCore* tf) {
+  DriverSettings settings = defaultSettings();
+  settings.maxPinJump = 10.0;
+  return makeDriver(tf, settings);
 }
 
 PinCommand pinInGripper(Index vertex) {
@@ -56,7 +70,7 @@ PinCommand pinInGripper(Index vertex) {
 TEST(Frames, APinFollowsItsFrameExactlyWhereTfCanInterpolate) {
   tf2::BufferCore tf(ros::Duration(100.0));
   for (int k = 0; k <= 50; ++k) tf.setTransform(gripperAt(0.01 * k), "test");
-  SimulationDriver driver = makeDriver(&tf);
+  SimulationDriver driver = makeGripperDriver(&tf);
   ASSERT_TRUE(driver.submit(pinInGripper(12)).ok());
   for (int k = 1; k <= 20; ++k) {
     std::string missing;
@@ -77,7 +91,7 @@ TEST(Frames, BeforeItsFirstTransformAFrameIsServedTheNearestWithoutWaiting) {
   // The gripper appears at t = 0.3 s; the pin is commanded at t = 0.
   tf2::BufferCore tf(ros::Duration(100.0));
   for (int k = 30; k <= 60; ++k) tf.setTransform(gripperAt(0.01 * k), "test");
-  SimulationDriver driver = makeDriver(&tf);
+  SimulationDriver driver = makeGripperDriver(&tf);
   ASSERT_TRUE(driver.submit(pinInGripper(12)).ok());
   std::string missing;
   // Waiting cannot help: transforms for t < 0.3 s never arrive.
@@ -101,10 +115,214 @@ TEST(Frames, AFrameThatAppearsLaterThanTfTimeoutIsRefusedByName) {
   // The gripper appears at t = 1.5 s, more than tf_timeout = 1 s after the command's time.
   tf2::BufferCore tf(ros::Duration(100.0));
   for (int k = 150; k <= 160; ++k) tf.setTransform(gripperAt(0.01 * k), "test");
-  SimulationDriver driver = makeDriver(&tf);
+  SimulationDriver driver = makeGripperDriver(&tf);
   const Status s = driver.submit(pinInGripper(12));
   ASSERT_FALSE(s.ok());
   EXPECT_NE(s.error().find("'gripper'"), std::string::npos) << s.error();
   EXPECT_NE(s.error().find("first transform"), std::string::npos) << s.error();
   EXPECT_FALSE(driver.simulator().isPinned(12));
+}
+
+namespace {
+
+// A frame "hand" at (x, 0, z) at simulation time t.
+geometry_msgs::TransformStamped handAt(double t, double x, double z) {
+  geometry_msgs::TransformStamped tf = gripperAt(t);
+  tf.child_frame_id = "hand";
+  tf.transform.translation.x = x;
+  tf.transform.translation.z = z;
+  return tf;
+}
+
+PinCommand pinInPlace(const std::string& frame, std::vector<std::uint32_t> vertices) {
+  PinCommand c;
+  c.header.frame_id = frame;
+  c.action = PinCommand::PIN_IN_PLACE;
+  c.vertices = std::move(vertices);
+  return c;
+}
+
+Eigen::Vector3d positionOf(const SimulationDriver& driver, Index v) {
+  return driver.simulator().state().x.segment<3>(3 * v);
+}
+
+bool anyContains(const std::vector<std::string>& lines, const std::string& part) {
+  for (const std::string& l : lines) {
+    if (l.find(part) != std::string::npos) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+TEST(Frames, APinWhoseFrameStopsIsDroppedAfterTfTimeoutAndStaysWhereItIs) {
+  // The hand rises at 1 m/s from t = 0 until its publisher stops at t = 0.5 s.
+  tf2::BufferCore tf(ros::Duration(100.0));
+  for (int k = 0; k <= 50; ++k) tf.setTransform(handAt(0.01 * k, 0.0, 0.01 * k), "test");
+  SimulationDriver driver = makeDriver(&tf);
+  const Eigen::Vector3d start = positionOf(driver, 12);
+  ASSERT_TRUE(driver.submit(pinInPlace("hand", {12})).ok());
+  double droppedAt = -1.0;
+  while (driver.simulator().time() < 2.0) {
+    ASSERT_TRUE(driver.step().ok);
+    const std::vector<std::string> warnings = driver.takeWarnings();
+    if (anyContains(warnings, "stop following frame 'hand'")) {
+      ASSERT_LT(droppedAt, 0.0) << "dropped twice";
+      droppedAt = driver.simulator().time();
+      EXPECT_TRUE(anyContains(warnings, "vertex 12")) << warnings.front();
+      EXPECT_TRUE(anyContains(warnings, "stale")) << warnings.front();
+    } else if (droppedAt > 0.0) {
+      EXPECT_TRUE(warnings.empty()) << warnings.front();  // silent once dropped
+    }
+  }
+  // Dropped at the first step whose end is more than tf_timeout = 1 s after the newest transform
+  // (t = 0.5 s): the one ending at 1.5 or 1.51 s (1.5 - 0.5 is 1 s up to the clock's rounding).
+  EXPECT_GE(droppedAt, 1.5 - 1e-9);
+  EXPECT_LE(droppedAt, 1.51 + 1e-9);
+  // Still pinned, where the hand last was: 0.5 m above its start.
+  EXPECT_TRUE(driver.simulator().isPinned(12));
+  EXPECT_LT((positionOf(driver, 12) - (start + Eigen::Vector3d(0.0, 0.0, 0.5))).norm(), 1e-12);
+  std::string missing;
+  EXPECT_TRUE(driver.transformsReady(&missing)) << missing;  // it needs the hand no more
+  EXPECT_TRUE(driver.framesNotReady().empty());
+}
+
+TEST(Frames, AFrameThatJumpsFartherThanMaxPinJumpLosesItsPins) {
+  // The hand is at the origin until t = 0.1 s, then 50 m away.
+  tf2::BufferCore tf(ros::Duration(100.0));
+  for (int k = 0; k <= 30; ++k) tf.setTransform(handAt(0.01 * k, k <= 10 ? 0.0 : 50.0, 0.0), "test");
+  SimulationDriver driver = makeDriver(&tf);
+  const Eigen::Vector3d start = positionOf(driver, 12);
+  ASSERT_TRUE(driver.submit(pinInPlace("hand", {12, 6})).ok());
+  std::vector<std::string> warnings;
+  for (int k = 1; k <= 11; ++k) {
+    ASSERT_TRUE(driver.step().ok);
+    warnings = driver.takeWarnings();
+    if (k < 11) {
+      EXPECT_TRUE(warnings.empty()) << warnings.front();
+    }
+  }
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("vertices 6 and 12 stop following frame 'hand'"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("max_pin_jump = 1 m"), std::string::npos) << warnings[0];
+  EXPECT_TRUE(driver.simulator().isPinned(12));
+  EXPECT_EQ(positionOf(driver, 12), start);
+}
+
+TEST(Commands, APinTargetFartherThanMaxPinJumpIsRefusedWholeNamingVertexAndDistance) {
+  SimulationDriver driver = makeDriver(nullptr);
+  const Eigen::Vector3d p6 = positionOf(driver, 6), p12 = positionOf(driver, 12);
+  PinCommand c;
+  c.header.frame_id = "world";
+  c.action = PinCommand::PIN_AT_TARGETS;
+  c.vertices = {6, 12};
+  const Eigen::Vector3d near = p6 + Eigen::Vector3d(0.0, 0.0, 0.1);
+  const Eigen::Vector3d far = p12 + Eigen::Vector3d(3.0, 4.0, 0.0);  // 5 m away
+  c.targets.resize(2);
+  c.targets[0].x = near.x();
+  c.targets[0].y = near.y();
+  c.targets[0].z = near.z();
+  c.targets[1].x = far.x();
+  c.targets[1].y = far.y();
+  c.targets[1].z = far.z();
+  ASSERT_TRUE(driver.submit(c).ok());  // valid as a message; refused when due
+  ASSERT_TRUE(driver.step().ok);
+  const std::vector<std::string> warnings = driver.takeWarnings();
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("the target of vertex 12 is 5 m from where the vertex is (max_pin_jump = 1 m)"),
+            std::string::npos) << warnings[0];
+  EXPECT_FALSE(driver.simulator().isPinned(6));  // not half applied
+  EXPECT_FALSE(driver.simulator().isPinned(12));
+  EXPECT_TRUE(driver.takeAppliedPins().empty());
+  const CommandCounts n = driver.commandCounts(CommandTopic::Pin);
+  EXPECT_EQ(n.received, 1u);
+  EXPECT_EQ(n.rejected, 1u);
+  EXPECT_EQ(n.applied, 0u);
+  // Within the limit it is applied.
+  c.vertices = {6};
+  c.targets.resize(1);
+  ASSERT_TRUE(driver.submit(c).ok());
+  ASSERT_TRUE(driver.step().ok);
+  EXPECT_TRUE(driver.simulator().isPinned(6));
+  EXPECT_EQ(positionOf(driver, 6), near);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Pin).applied, 1u);
+}
+
+TEST(Commands, AStampNoDurationRelatesToTheEpochIsRefusedNamingTheField) {
+  tf2::BufferCore tf(ros::Duration(100.0));
+  for (int k = 0; k <= 50; ++k) tf.setTransform(gripperAt(0.01 * k), "test");
+  SimulationDriver driver = makeGripperDriver(&tf);
+  // 2^32 - 1 s is 4294966295 s after the epoch (1000 s): no ros::Duration holds that. Checked
+  // before tf sees it (tf's own arithmetic would throw), in any frame.
+  for (const char* frame : {"world", "gripper"}) {
+    ForceCommand c;
+    c.header.frame_id = frame;
+    c.header.stamp = ros::Time(4294967295u, 0u);
+    c.vertices = {3};
+    c.forces.resize(1);
+    const Status s = driver.submit(c);
+    ASSERT_FALSE(s.ok()) << frame;
+    EXPECT_NE(s.error().find("header.stamp = 4.29497e+09 s is 4.29497e+09 s from the simulation's time origin"),
+              std::string::npos) << s.error();
+  }
+  PinCommand pin = pinInGripper(12);
+  pin.header.stamp = ros::Time(4294967295u, 0u);
+  EXPECT_FALSE(driver.submit(pin).ok());
+  // A stamp 10^9 s ahead is a ROS duration: accepted, and waits.
+  ForceCommand later;
+  later.header.frame_id = "world";
+  later.header.stamp = kEpoch + ros::Duration(1e9);
+  later.vertices = {3};
+  later.forces.resize(1);
+  EXPECT_TRUE(driver.submit(later).ok());
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Force).rejected, 2u);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Force).pending, 1u);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Pin).rejected, 1u);
+  ASSERT_TRUE(driver.step().ok);
+}
+
+TEST(Commands, PendingCommandsAreCappedCountedAndDiscardedByReset) {
+  DriverSettings settings = defaultSettings();
+  settings.maxPendingCommands = 5;
+  SimulationDriver driver = makeDriver(nullptr, settings);
+  ForceCommand c;
+  c.header.frame_id = "world";
+  c.vertices = {3};
+  c.forces.resize(1);
+  for (int k = 1; k <= 6; ++k) {
+    c.header.stamp = kEpoch + ros::Duration(100.0 + k);  // all in the future
+    const Status s = driver.submit(c);
+    EXPECT_EQ(s.ok(), k <= 5) << k;
+    if (k == 6) {
+      EXPECT_NE(s.error().find("(max_pending_commands = 5)"), std::string::npos) << s.error();
+    }
+  }
+  CommandCounts n = driver.commandCounts(CommandTopic::Force);
+  EXPECT_EQ(n.received, 6u);
+  EXPECT_EQ(n.rejected, 1u);
+  EXPECT_EQ(n.pending, 5u);
+  driver.reset();
+  n = driver.commandCounts(CommandTopic::Force);
+  EXPECT_EQ(n.pending, 0u);
+  EXPECT_EQ(n.discarded, 5u);
+  EXPECT_EQ(n.received, n.rejected + n.applied + n.pending + n.discarded);
+  // Room again: commands for the next step are applied and counted.
+  c.header.stamp = ros::Time();
+  for (int k = 0; k < 4; ++k) ASSERT_TRUE(driver.submit(c).ok());
+  ASSERT_TRUE(driver.step().ok);
+  EXPECT_EQ(driver.takeAppliedForces().size(), 4u);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Force).applied, 4u);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Pin).received, 0u);
+}
+
+TEST(Commands, AStepWhoseEndIsNoRosTimeIsRefusedAndLeavesTheState) {
+  // The epoch 5 ms before the last ROS time: the first step (10 ms) would end beyond it.
+  DriverSettings settings = defaultSettings();
+  settings.epoch = ros::Time(4294967295u, 995000000u);
+  SimulationDriver driver = makeDriver(nullptr, settings);
+  const StepReport r = driver.step();
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("is not a ROS time"), std::string::npos) << r.error;
+  EXPECT_EQ(driver.stepIndex(), 0u);
+  EXPECT_EQ(driver.now(), settings.epoch);
 }

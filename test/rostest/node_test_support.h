@@ -2,13 +2,17 @@
 // check that messages carry finite numbers.
 #pragma once
 
+#include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <tf2_msgs/TFMessage.h>
 
+#include <atomic>
 #include <cmath>
 #include <functional>
 #include <mutex>
 #include <string>
+#include <thread>
 
 #include "fem_cloth/ClothEnergy.h"
 #include "fem_cloth/ClothState.h"
@@ -101,5 +105,29 @@ inline bool waitForConnection(const ros::Publisher& pub, double timeout = 10.0) 
   }
   return pub.getNumSubscribers() > 0;
 }
+
+/// Publishes the transform make() returns on a /tf publisher every 10 ms, on a thread of its own,
+/// until stop() or destruction (so however a test ends, an ASSERT returning early included).
+class TfBroadcaster {
+ public:
+  TfBroadcaster(ros::Publisher& pub, std::function<geometry_msgs::TransformStamped()> make)
+      : thread_([this, &pub, make = std::move(make)] {
+          while (!stop_ && ros::ok()) {
+            tf2_msgs::TFMessage message;
+            message.transforms.push_back(make());
+            pub.publish(message);
+            ros::WallDuration(0.01).sleep();
+          }
+        }) {}
+  ~TfBroadcaster() { stop(); }
+  void stop() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 }  // namespace fem_cloth_test

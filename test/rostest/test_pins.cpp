@@ -3,10 +3,6 @@
 #include <tf2/LinearMath/Vector3.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include <atomic>
-
-#include <thread>
-
 #include "fem_cloth/PinCommand.h"
 #include "node_test_support.h"
 
@@ -60,34 +56,19 @@ TEST(Pins, FollowsAFrameMovedByTf) {
   // (a message sent before that is lost, and the node would not know the frame yet).
   ros::Publisher tfPub = nh.advertise<tf2_msgs::TFMessage>("/tf", 100);
   ASSERT_TRUE(waitForConnection(tfPub));
-  std::atomic<bool> stop{false};
-  std::thread broadcaster([&] {
-    while (!stop && ros::ok()) {
-      const ros::Time stamp = ros::Time::now() + ros::Duration(0.2);
-      geometry_msgs::TransformStamped tf;
-      tf.header.stamp = stamp;
-      tf.header.frame_id = "world";
-      tf.child_frame_id = "gripper";
-      const tf2::Vector3 p = gripperAt(stamp);
-      tf.transform.translation.x = p.x();
-      tf.transform.translation.y = p.y();
-      tf.transform.translation.z = p.z();
-      tf.transform.rotation.w = 1.0;
-      tf2_msgs::TFMessage message;
-      message.transforms.push_back(tf);
-      tfPub.publish(message);
-      ros::WallDuration(0.01).sleep();
-    }
+  TfBroadcaster broadcaster(tfPub, [&] {
+    const ros::Time stamp = ros::Time::now() + ros::Duration(0.2);
+    geometry_msgs::TransformStamped tf;
+    tf.header.stamp = stamp;
+    tf.header.frame_id = "world";
+    tf.child_frame_id = "gripper";
+    const tf2::Vector3 p = gripperAt(stamp);
+    tf.transform.translation.x = p.x();
+    tf.transform.translation.y = p.y();
+    tf.transform.translation.z = p.z();
+    tf.transform.rotation.w = 1.0;
+    return tf;
   });
-  // Stops and joins the broadcaster however the test ends (an ASSERT returns early).
-  struct Joiner {
-    std::atomic<bool>& stop;
-    std::thread& thread;
-    ~Joiner() {
-      stop = true;
-      if (thread.joinable()) thread.join();
-    }
-  } joiner{stop, broadcaster};
   // Stamp the command 0.3 s ahead: the node applies it at that simulation time, which its tf
   // buffer covers exactly (a command stamped before the frame's first transform would be
   // served the nearest transform instead, with a warning).

@@ -24,6 +24,9 @@ struct Mesh {
   Index numDofs() const { return static_cast<Index>(restPositions.size()); }
 };
 
+/// Vertex i of positions x (mesh.dim values per vertex) as a 3D point (z = 0 in 2D).
+Eigen::Vector3d vertex3(const Mesh& mesh, const VectorX& x, Index i);
+
 /// Unique undirected edges (i < j), sorted.
 std::vector<std::array<Index, 2>> uniqueEdges(const std::vector<Triangle>& triangles);
 

@@ -70,6 +70,13 @@ struct SceneObstacle {
   std::vector<TrajectoryPoint> trajectory;
 };
 
+/// A named point of the cloth that the node publishes as a tf frame (docs/scenes.md, `frames`):
+/// one vertex, by index or by grid coordinates.
+struct SceneFrame {
+  std::string name;
+  VertexSelection select;  ///< exactly one vertex
+};
+
 struct SceneInitialPosition {
   Index vertex = 0;
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
@@ -118,6 +125,7 @@ struct Scene {
   std::vector<SceneForce> forces;
   std::vector<SceneObstacle> obstacles;
   ContactSettings contact;  ///< used only with obstacles or self_collision
+  std::vector<SceneFrame> frames;  ///< used by the node only (tf frames of cloth points)
   std::vector<SceneInitialPosition> initialPositions;
   Eigen::Vector3d initialVelocity = Eigen::Vector3d::Zero();
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/simulator.h"
 #include "fem_cloth/ros/bag_io.h"
 
@@ -40,6 +41,7 @@ struct BagRunReport {
   std::uint64_t firstMismatch = 0;  ///< step of the first differing state (if any)
   std::string finalHash;
   EnergyReport energy;
+  EdgeStretch stretch;  ///< of the final state
   std::vector<std::string> warnings;
 };
 

@@ -17,27 +17,38 @@
 //   always_publish    bool    compute energies, markers and reactions even with no subscriber
 //   start_paused      bool    wait for ~resume or ~step (false)
 //   tf_timeout        double  s after which a frame's newest transform counts as stale (1.0)
-//   strain_color_max  double  strain shown fully red in ~marker (0.05)
 //   step_lag          double  s the node stays behind ROS time in real_time mode, so that the
 //                             commands and transforms for a step have arrived when it is taken:
 //                             what makes a live replay reproduce a recording (0)
 //   replay_bag        string  a recorded run: its scene (unless one is given) and its time
 //                             origin (start_time) are used, for replaying it live
+//   max_pin_jump      double  m: a pin target farther than this from its vertex is refused (1.0)
+//   max_pending_commands int  commands that may wait to be checked, and checked ones that may
+//                             wait for their stamp; more are refused (10000)
+//   command_queue_size int    roscpp subscriber queue of ~pin and ~force (1000)
+// and the perception parameters (point cloud, camera, tf frames, marker look: perception.h).
+//
+// Threads: roscpp's spinners run the callbacks, which only hand commands to a CommandInbox and
+// requests to a RunControl; the run loop (run()) is the one thread that touches the simulation.
 #pragma once
 
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
 
-#include <atomic>
-#include <condition_variable>
+#include <array>
 #include <memory>
-#include <mutex>
 #include <string>
 
 #include "fem_cloth/Advance.h"
+#include "fem_cloth/ros/command_queue.h"
+#include "fem_cloth/ros/perception.h"
+#include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/simulation_driver.h"
+#include "fem_cloth/ros/tf_intake.h"
+#include "fem_cloth/ros/transform_wait.h"
+#include "fem_cloth/ros/warning_throttle.h"
 
 namespace fem_cloth {
 
@@ -46,10 +57,11 @@ class ClothNode {
   ClothNode(ros::NodeHandle node, ros::NodeHandle privateNode);
   ~ClothNode();
 
-  /// Reads the parameters and builds the simulation. On a missing or invalid parameter returns
-  /// false with one line naming it.
+  /// Reads the parameters and builds the simulation. On a missing or invalid parameter (or
+  /// scene) returns false with one line naming it.
   bool start(std::string* error);
-  /// Steps and publishes until ROS shuts down.
+  /// Steps and publishes until ROS shuts down. Throws only on an internal failure of the
+  /// simulation (the node's main exits with status 3).
   void run();
 
   /// The names of the node's own private parameters (everything else under ~ is scene).
@@ -59,30 +71,62 @@ class ClothNode {
   enum class TimeMode { RealTime, Fast };
 
   bool readParameters(std::string* error);
+  bool readLimits(std::string* error);
+  void advertise();
   void onPin(const PinCommand::ConstPtr& msg);
   void onForce(const ForceCommand::ConstPtr& msg);
-  void reject(const std::string& topic, const std::string& why);
   bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onStep(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onAdvance(Advance::Request& req, Advance::Response& res);
-  /// One step and its outputs (lock held by the caller).
+
+  // --- The run loop (one thread) ---------------------------------------------------------------
+  /// Publishes what a starting node publishes once (mesh, scene, the initial state).
+  void begin();
+  /// One pass: commands, requests, and a step when one is due.
+  void turn();
+  /// Hands the commands that arrived to the driver (it validates and queues them).
+  void takeCommands();
+  void reject(CommandTopic topic, const std::string& why);
+  /// Says which transforms the tf intake refused since the last turn.
+  void tellTfRefusals();
+  /// ~reset, ~resume and the end of an ~advance, as the run loop carries them out.
+  void doReset();
+  void restartRealTime();
+  void finishAdvance();
+  /// Seconds until the next step is due in real_time mode (<= 0: due).
+  double secondsUntilDue() const;
+  /// False while the node waits (up to tf_timeout) for the transforms the next step needs.
+  bool transformsReady();
+  /// One step and its outputs.
   void stepOnce();
   /// /clock at the simulation time (fast mode only).
   void publishClock();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
+  /// At least once a second; within 0.1 s after a problem (at most 10 per second).
   void publishDiagnostics(bool force);
+  CommandCounts commandCounts(CommandTopic topic) const;
+  /// Log lines through the throttles (warnings; errors); `label` names the kind in summaries.
+  void warn(const std::string& kind, const std::string& message, const std::string& label = "");
+  void error(const std::string& kind, const std::string& message, const std::string& label = "");
+  void flushLogs();
   bool wanted(const ros::Publisher& pub) const {
     return alwaysPublish_ || pub.getNumSubscribers() > 0;
   }
 
   ros::NodeHandle node_, private_;
+  // ~advance and ~reset wait for the run loop: their own queue and spinner, so that waiting
+  // never holds up commands, ~pause or ~resume.
+  ros::CallbackQueue blockingQueue_;
   tf2_ros::Buffer tfBuffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tfListener_;
+  std::unique_ptr<TfIntake> tfIntake_;
   std::unique_ptr<SimulationDriver> driver_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
+  std::unique_ptr<PerceptionOutputs> perception_;  // ~points, ~camera/*, ~marker, tf frames
+  std::unique_ptr<RunControl> control_;
+  std::unique_ptr<CommandInbox> inbox_;
+  std::unique_ptr<TransformWait> tfWait_;
+  WarningThrottle warnings_, errors_;
 
   // Parameters.
   std::string frame_ = "world";
@@ -90,27 +134,31 @@ class ClothNode {
   double realTimeFactor_ = 1.0;
   double publishRate_ = 30.0, markerRate_ = 10.0;
   bool publishVelocities_ = false, alwaysPublish_ = false, startPaused_ = false;
-  double tfTimeout_ = 1.0, strainColorMax_ = 0.05;
+  double tfTimeout_ = 1.0;
   bool hasStartTime_ = false;
   ros::Time startTime_;  // exact: a time origin from a bag must not pass through a double
   double stepLag_ = 0.0;
   std::string replayBag_;
+  double maxPinJump_ = 1.0;
+  int maxPendingCommands_ = 10000, commandQueueSize_ = 1000;
 
-  // Run state.
-  bool paused_ = false;
-  int stepRequests_ = 0;
+  // Run state (the run loop's).
   std::uint64_t publishEvery_ = 1, markerEvery_ = 1;
-  ros::Time wallEpoch_;  // ROS time at which simulation time 0 is due (real_time mode)
+  // ROS time (s) at which simulation time 0 is due in real_time mode. A double, not a ros::Time:
+  // after a pause it may lie before ROS time 0 (simulation time ahead of a sim clock).
+  double dueOrigin_ = 0.0;
   ros::WallTime rtfWindowStart_;
   double rtfWindowSimStart_ = 0.0, realTimeFactorMeasured_ = 0.0;
   double stepWallTime_ = 0.0;
-  std::uint64_t rejected_ = 0, failedSteps_ = 0;
+  StepReport lastReport_;
+  std::uint64_t failedSteps_ = 0;
+  std::array<std::uint64_t, kCommandTopics> inboxRefusalsTold_{};
   std::string lastProblem_;
   ros::WallTime lastDiagnostics_;
-  ros::WallTime tfWaitStart_;
+  bool diagnosticsSoon_ = false;
 
   ros::Subscriber pinSub_, forceSub_;
-  ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, markerPub_, pinForcesPub_,
+  ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, pinForcesPub_,
       pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_,
       obstacleMarkerPub_;
   std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order

@@ -11,8 +11,26 @@
 
 namespace fem_cloth {
 
+/// Reads an optional private parameter of type T, checking its type: a parameter that is set
+/// with the wrong type is an error naming it ("parameter ~name must be <expected>"); one that is
+/// not set leaves `value` as it is.
+template <typename T>
+bool readParam(const ros::NodeHandle& nh, const std::string& name, T& value, std::string* error,
+               const char* expected) {
+  if (!nh.hasParam(name)) return true;
+  if (!nh.getParam(name, value)) {
+    *error = "parameter ~" + name + " must be " + expected;
+    return false;
+  }
+  return true;
+}
+
 /// Converts a parameter tree into YAML (structs to maps, arrays to lists, scalars to scalars).
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
+
+/// The other way: YAML maps to structs, lists to arrays, scalars to booleans, whole numbers,
+/// numbers or strings (as a parameter server would hold the document).
+XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
 
 /// Maps of `overlay` replace or extend those of `base`, key by key; other values replace.
 void overlayYaml(YAML::Node base, const YAML::Node& overlay);

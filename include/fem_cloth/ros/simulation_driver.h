@@ -6,7 +6,8 @@
 //
 // Time: simulation time t (s, from 0) maps to ROS time epoch + t. A command takes effect before
 // the first step that starts at or after its stamp (zero stamp: before the next step). Every
-// output message is stamped with the simulation time of the state it carries.
+// output message is stamped with the simulation time of the state it carries. Stamps are range
+// checked (time_checks.h): a stamp no ROS duration can relate to the epoch is refused by name.
 #pragma once
 
 #include <geometry_msgs/WrenchStamped.h>
@@ -16,7 +17,7 @@
 #include <visualization_msgs/Marker.h>
 #include <visualization_msgs/MarkerArray.h>
 
-#include <deque>
+#include <array>
 #include <map>
 #include <memory>
 #include <optional>
@@ -32,6 +33,7 @@
 #include "fem_cloth/StepStats.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/scene.h"
+#include "fem_cloth/ros/command_queue.h"
 
 namespace fem_cloth {
 
@@ -39,10 +41,15 @@ struct DriverSettings {
   std::string frame = "world";  ///< the simulation frame
   ros::Time epoch;              ///< ROS time of simulation time 0
   /// A frame whose newest transform is older than this (s, in ROS time) is stale: commands
-  /// referring to it are rejected, and following pins keep their last target.
+  /// referring to it are rejected, and the pins that follow it stop following and stay put.
   double tfTimeout = 1.0;
   bool publishVelocities = false;
-  double strainColorMax = 0.05;  ///< marker colour scale: strain (s1 - 1) shown fully red
+  /// A pin target farther than this (m) from where its vertex is is refused: the pin would move
+  /// the vertex there within one step. Checked when a pin command is applied and whenever a
+  /// followed frame moves its pins (a frame that jumps loses its followers).
+  double maxPinJump = 1.0;
+  /// At most this many validated commands wait for their time; more are refused.
+  std::size_t maxPendingCommands = 10000;
 };
 
 /// 64-bit FNV-1a over the bits of the positions, then the velocities, as 16 hex digits.
@@ -68,6 +75,9 @@ class SimulationDriver {
   Status submit(const PinCommand& command);
   Status submit(const ForceCommand& command);
   std::size_t pendingCommands() const { return pending_.size(); }
+  /// What became of the commands of a topic since construction (submitted = received; reset()
+  /// does not clear the counts).
+  CommandCounts commandCounts(CommandTopic topic) const;
 
   /// True when every transform the next step needs is known at exactly the time it is needed:
   /// the frames of the commands due at the start of the step, and the frames followed by pins
@@ -75,12 +85,18 @@ class SimulationDriver {
   /// transform, which a replay of the run may not see the same way: the node waits for this
   /// (up to tf_timeout) before each step.
   bool transformsReady(std::string* missing) const;
+  /// The frames that transformsReady() waits for, each once.
+  std::vector<std::string> framesNotReady() const;
 
   /// Applies the commands that are due, moves frame-following pins to where their frames are at
   /// the end of the step, and advances one step. Commands that fail when applied are reported
-  /// through takeWarnings(); the step itself fails only as Simulator::step does.
+  /// through takeWarnings() (and counted as rejected). Pins whose frame has gone stale (its newest
+  /// transform older than tf_timeout) or jumps farther than maxPinJump stop following it and stay
+  /// where they are, with a warning. The step itself fails as Simulator::step does, or when its
+  /// end would map to no ROS time.
   StepReport step();
-  /// Back to the initial state; pending commands and frame-following pins are dropped.
+  /// Back to the initial state; pending commands (counted as discarded) and frame-following pins
+  /// are dropped.
   void reset();
   /// Problems met while stepping (a frame no longer available, a command that could not be
   /// applied), since the last call.
@@ -95,7 +111,6 @@ class SimulationDriver {
   ClothState stateMessage() const;
   ClothEnergy energyMessage();
   StepStats statsMessage(const StepReport& report, double wallTime, double realTimeFactor) const;
-  visualization_msgs::Marker markerMessage();
   PinForces pinForcesMessage() const;
   /// One wrench per grasp frame (the sum over the pins that follow it, expressed in that frame,
   /// torque about its origin) and one in the simulation frame for pins fixed there.
@@ -111,10 +126,6 @@ class SimulationDriver {
   std::vector<std::string> obstacleNames() const;
 
  private:
-  struct Pending {
-    double time;  // simulation time it takes effect (<= 0: next step)
-    std::variant<PinCommand, ForceCommand> command;
-  };
   struct Follow {
     std::string frame;
     Eigen::Vector3d local;  // target in that frame
@@ -130,10 +141,19 @@ class SimulationDriver {
   /// later than the newest transform received (it precedes the frame's first transform, or
   /// falls in a gap), so the transform for it will never arrive.
   bool knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const;
-  double commandTime(const ros::Time& stamp) const;
-  /// Into pending_, after the commands due at the same time or earlier (equal times keep their
-  /// arrival order).
-  void queue(Pending p);
+  /// The simulation time a stamp stands for (-1 for a zero stamp: the next step), or an error
+  /// naming header.stamp when no ROS duration relates it to the epoch.
+  Expected<double> commandTime(const ros::Time& stamp) const;
+  /// submit() for either kind: counts, checks the stamp, then `check`, then queues.
+  template <class C>
+  Status submitCommand(const C& command);
+  Status check(const PinCommand& command) const;
+  Status check(const ForceCommand& command) const;
+  /// (frame, simulation time) of every transform the next step needs.
+  std::vector<std::pair<std::string, double>> neededTransforms() const;
+  /// Error naming the first vertex whose target is farther than maxPinJump from it.
+  Status checkJumps(const std::vector<Index>& vertices,
+                    const std::vector<Eigen::Vector3d>& targets) const;
   Status apply(const PinCommand& command);
   Status apply(const ForceCommand& command);
   void followFrames(double endTime);
@@ -144,13 +164,13 @@ class SimulationDriver {
   Scene scene_;
   DriverSettings settings_;
   const tf2::BufferCore* tf_;
-  std::deque<Pending> pending_;
+  CommandQueue pending_;
+  std::array<CommandCounts, kCommandTopics> counts_{};  // pending is pending_'s
   std::map<Index, Follow> follow_;
   std::map<std::size_t, Eigen::Isometry3d> obstacleFrame_;  // last known pose of a followed frame
   std::vector<std::string> warnings_;
   std::vector<PinCommand> appliedPins_;
   std::vector<ForceCommand> appliedForces_;
-  std::vector<double> strains_;
 };
 
 }  // namespace fem_cloth

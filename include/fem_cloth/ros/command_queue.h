@@ -1,0 +1,104 @@
+// Where pin and force commands wait, and what became of them (docs/node.md, Commands).
+//
+// A command arrives on a topic into the node's CommandInbox (thread-safe: a subscriber callback
+// only appends, it never waits for a step), is validated between steps by the SimulationDriver
+// and queued in its CommandQueue (stamp order) until its time comes. Both are bounded: beyond
+// their capacity a command is refused, counted and reported, never dropped in silence.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <mutex>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "fem_cloth/CommandStats.h"
+#include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/PinCommand.h"
+#include "fem_cloth/core/expected.h"
+
+namespace fem_cloth {
+
+enum class CommandTopic : std::size_t { Pin = 0, Force = 1 };
+constexpr std::size_t kCommandTopics = 2;
+
+using Command = std::variant<PinCommand, ForceCommand>;
+
+inline CommandTopic topicOf(const Command& c) {
+  return std::holds_alternative<PinCommand>(c) ? CommandTopic::Pin : CommandTopic::Force;
+}
+/// "pin" or "force", the topic's name under the node.
+const char* topicName(CommandTopic topic);
+
+/// What became of the commands of one topic. received = rejected + applied + pending + discarded.
+struct CommandCounts {
+  std::uint64_t received = 0;
+  std::uint64_t rejected = 0;   ///< invalid, over a capacity, or failed when due
+  std::uint64_t applied = 0;    ///< took effect before a step
+  std::uint64_t pending = 0;    ///< waiting (to be validated, or for their stamp)
+  std::uint64_t discarded = 0;  ///< still pending when ~reset dropped them
+};
+
+/// Validated commands waiting for their simulation time, in time order (equal times keep their
+/// arrival order, so a replayed stream applies the same way), at most `capacity` of them.
+class CommandQueue {
+ public:
+  explicit CommandQueue(std::size_t capacity) : capacity_(capacity) {}
+
+  /// Queues `command` to take effect at simulation time `time` (<= 0: before the next step),
+  /// after those due at the same time or earlier. Refused, naming the capacity, when full.
+  Status push(double time, Command command);
+  /// Removes and returns the commands due at or before `time`, in order.
+  std::vector<Command> takeDue(double time);
+  /// The commands due at or before `time`, left in the queue.
+  std::vector<const Command*> due(double time) const;
+  /// Drops every command; returns how many of each topic were dropped.
+  std::array<std::uint64_t, kCommandTopics> clear();
+
+  std::size_t size() const { return pending_.size(); }
+  std::uint64_t size(CommandTopic topic) const { return perTopic_[static_cast<std::size_t>(topic)]; }
+  std::size_t capacity() const { return capacity_; }
+
+ private:
+  struct Pending {
+    double time;
+    Command command;
+  };
+  std::size_t capacity_;
+  std::deque<Pending> pending_;
+  std::array<std::uint64_t, kCommandTopics> perTopic_{};
+};
+
+/// Commands as they arrive, for the run loop to take between steps. Thread-safe. At most
+/// `capacity` wait; beyond that push() refuses and counts the command.
+class CommandInbox {
+ public:
+  explicit CommandInbox(std::size_t capacity) : capacity_(capacity) {}
+
+  /// False (the command is counted as refused) when `capacity` commands already wait.
+  bool push(Command command);
+  /// Every waiting command, in arrival order.
+  std::vector<Command> take();
+
+  struct Tally {
+    std::uint64_t received = 0, refused = 0, waiting = 0;
+  };
+  Tally tally(CommandTopic topic) const;
+  std::size_t capacity() const { return capacity_; }
+
+ private:
+  std::size_t capacity_;
+  mutable std::mutex mutex_;
+  std::vector<Command> waiting_;
+  std::array<Tally, kCommandTopics> tally_{};
+};
+
+CommandStats toMsg(const CommandCounts& counts);
+
+/// The counts a node reports: those of its inbox (commands not yet validated, or refused by the
+/// inbox) added to those of its driver.
+CommandCounts combinedCounts(const CommandInbox::Tally& inbox, const CommandCounts& driver);
+
+}  // namespace fem_cloth
