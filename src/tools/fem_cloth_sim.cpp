@@ -454,7 +454,8 @@ int main(int argc, char** argv) {
   const double energyScale =
       std::max({std::abs(initialEnergy.total), std::abs(e.gravity), std::abs(e.total), 1e-12});
   summary << "balance:      error " << e.balanceError << " J (" << 100.0 * e.balanceError / energyScale
-          << " % of the energy scale " << energyScale << " J)\n";
+          << " % of the energy scale " << energyScale << " J; numerical dissipation "
+          << e.numericalDissipation << " J, created " << e.created << " J)\n";
   summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
           << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
   summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
