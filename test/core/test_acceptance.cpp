@@ -15,6 +15,7 @@
 #include <tuple>
 
 #include "config_scene.h"
+#include "fem_cloth/report/uniaxial.h"
 #include "test_support.h"
 
 using namespace fem_cloth;
@@ -149,73 +150,13 @@ Scene stripScene(const std::string& material, const std::string& integrator) {
   return s;
 }
 
-// Energy densities per unit rest area of the six models for a principal stretch state
-// (s1, s2) aligned with the rest frame, written from their papers (plane stress membrane moduli
-// mu = E h / (2 (1 + nu)), lambda = E h nu / (1 - nu^2)):
-//   linear (Sifakis & Barbic 2012, 3.2): mu (e1^2 + e2^2) + lambda/2 (e1 + e2)^2, e = s - 1;
-//   StVK (3.3): mu (E1^2 + E2^2) + lambda/2 (E1 + E2)^2, E = (s^2 - 1) / 2;
-//   corotational (Kim & Eberle 2022, 5): mu sum (s - 1)^2 + lambda/2 (s1 + s2 - 2)^2;
-//   ARAP: mu sum (s - 1)^2;
-//   Neo-Hookean (Bonet & Wood): mu/2 (s1^2 + s2^2 - 2) - mu ln J + lambda/2 (ln J)^2, J = s1 s2;
-//   Stable Neo-Hookean (Smith et al. 2018, 2D form): mu/2 (s1^2 + s2^2 - 2) - mu (J - 1)
-//     + (lambda + mu)/2 (J - 1)^2.
-double energyDensity(const std::string& model, double s1, double s2) {
-  const double mu = kYoungThickness / (2.0 * (1.0 + kPoisson));
-  const double lambda = kYoungThickness * kPoisson / (1.0 - kPoisson * kPoisson);
-  const double J = s1 * s2;
-  if (model == "linear") {
-    const double e1 = s1 - 1.0, e2 = s2 - 1.0;
-    return mu * (e1 * e1 + e2 * e2) + 0.5 * lambda * (e1 + e2) * (e1 + e2);
-  }
-  if (model == "stvk") {
-    const double E1 = 0.5 * (s1 * s1 - 1.0), E2 = 0.5 * (s2 * s2 - 1.0);
-    return mu * (E1 * E1 + E2 * E2) + 0.5 * lambda * (E1 + E2) * (E1 + E2);
-  }
-  const double arap = mu * ((s1 - 1.0) * (s1 - 1.0) + (s2 - 1.0) * (s2 - 1.0));
-  if (model == "arap") return arap;
-  if (model == "corotational") return arap + 0.5 * lambda * (s1 + s2 - 2.0) * (s1 + s2 - 2.0);
-  if (model == "neo_hookean") {
-    return 0.5 * mu * (s1 * s1 + s2 * s2 - 2.0) - mu * std::log(J) + 0.5 * lambda * std::log(J) * std::log(J);
-  }
-  if (model == "stable_neo_hookean") {
-    return 0.5 * mu * (s1 * s1 + s2 * s2 - 2.0) - mu * (J - 1.0) + 0.5 * (lambda + mu) * (J - 1.0) * (J - 1.0);
-  }
-  throw std::runtime_error("no closed form for " + model);
-}
+// The material's closed form for uniaxial tension under plane stress (report/uniaxial.h: the
+// energy densities as the papers write them, not the code under test).
+using report::PrincipalStretches;
+using Uniaxial = PrincipalStretches;
 
-// Root of a monotone f on [a, b] by bisection.
-double bisect(const std::function<double(double)>& f, double a, double b) {
-  const double fa = f(a);
-  for (int k = 0; k < 200; ++k) {
-    const double m = 0.5 * (a + b);
-    if ((f(m) > 0.0) == (fa > 0.0)) {
-      a = m;
-    } else {
-      b = m;
-    }
-  }
-  return 0.5 * (a + b);
-}
-
-struct Uniaxial {
-  double axial = 1.0, transverse = 1.0;  // principal stretches s1, s2
-};
-
-// Uniaxial tension under plane stress: the nominal stress d psi / d s1 equals T while the
-// transverse stress d psi / d s2 vanishes (s2 free), by central differences of the density.
 Uniaxial uniaxialStretch(const std::string& model, double tension) {
-  const double eps = 1e-7;
-  auto dPsi1 = [&](double s1, double s2) {
-    return (energyDensity(model, s1 + eps, s2) - energyDensity(model, s1 - eps, s2)) / (2 * eps);
-  };
-  auto dPsi2 = [&](double s1, double s2) {
-    return (energyDensity(model, s1, s2 + eps) - energyDensity(model, s1, s2 - eps)) / (2 * eps);
-  };
-  auto transverse = [&](double s1) { return bisect([&](double s2) { return dPsi2(s1, s2); }, 0.5, 1.5); };
-  Uniaxial u;
-  u.axial = bisect([&](double s1) { return dPsi1(s1, transverse(s1)) - tension; }, 1.0, 2.0);
-  u.transverse = transverse(u.axial);
-  return u;
+  return report::uniaxialStretch(model, tension, kYoungThickness, kPoisson);
 }
 
 Eigen::Vector3d positionOf(const Simulator& s, int row, int col) {
