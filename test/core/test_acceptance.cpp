@@ -12,6 +12,7 @@
 #include <cmath>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <tuple>
 
 #include "config_scene.h"
@@ -352,4 +353,31 @@ TEST(LinearValidity, HangingClothIsRefusedOutsideTheSmallDeformationRange) {
   EXPECT_TRUE(contains(error, "validity range")) << error;
   EXPECT_TRUE(contains(error, "element ")) << error;
   EXPECT_LT(s.time(), 2.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Test (b) by hand
+// ---------------------------------------------------------------------------------------------
+
+// Energy created = end - start - work + dissipated, against tolerance x max(size scale, held,
+// |work|). A step whose energy is infinite is never accepted: with the energy held infinite the
+// bound would be too (the small stability matrix accepted a symplectic Euler step to an infinite
+// StVK energy that way, then reported the cell non-finite).
+TEST(EnergyTest, BoundsTheEnergyCreatedAndNeverAcceptsANonFiniteEnergy) {
+  const StepAcceptance acceptance;
+  EnergyStep e;
+  e.start = 1.0;
+  e.externalWork = 0.5;
+  e.dissipated = 0.1;
+  e.end = 1.0 + 0.5 - 0.1 + 0.05;  // 0.05 J created
+  e.held = e.end;
+  // Scale max(1, 1.45, 0.5) = 1.45: 0.05 J is within 5 % of it (0.0725 J), not within 1 %.
+  EXPECT_TRUE(acceptance.energyConserved(e, 0.05, 1.0).ok());
+  const Status tight = acceptance.energyConserved(e, 0.01, 1.0);
+  ASSERT_FALSE(tight.ok());
+  EXPECT_NE(tight.error().find("energy created"), std::string::npos) << tight.error();
+  e.end = e.held = std::numeric_limits<double>::infinity();
+  EXPECT_FALSE(acceptance.energyConserved(e, 0.5, 1.0).ok());
+  e.end = e.held = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(acceptance.energyConserved(e, 0.5, 1.0).ok());
 }

@@ -67,7 +67,10 @@ Status StepAcceptance::energyConserved(const EnergyStep& energy, double toleranc
   if (!settings_.energy) return Status::success();
   const double scale = std::max({sizeScale, energy.held, std::abs(energy.work()), 1e-12});
   const double created = energy.created();
-  if (created <= tolerance * scale) return Status::success();
+  // A non-finite energy is never accepted (with it the scale would be infinite too).
+  if (std::isfinite(energy.end) && std::isfinite(scale) && created <= tolerance * scale) {
+    return Status::success();
+  }
   std::ostringstream msg;
   msg << "energy created: the step put " << created
       << " J into the cloth beyond the work done on it and the energy damping removed (from "
