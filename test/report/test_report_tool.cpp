@@ -131,8 +131,8 @@ TEST_F(ReportTool, StabilityCellsAreClassifiedAndNeverNonFinite) {
   // The small matrix: 3 cases (pull_corner, squash, strip) x 2 materials x 1 stiffness x every
   // integrator x 2 steps. No cell is non-finite, and none is "wrong" (accepted but violating the
   // energy balance or the strip's closed form): "stable" and "recovered" mean correct — except a
-  // known, open bug: symplectic Euler's acceptance (its energy bound, half the energy scale per
-  // step) lets the violent pull_corner and squash runs create 7-75 % of their energy scale, so
+  // known, open bug: symplectic Euler's acceptance (its energy bound, 2 s / (1 - s) of the energy
+  // scale per step) lets the violent pull_corner and squash runs create 7-99 % of their scale, so
   // those of its cells are "wrong" (docs/accuracy.md). Any other wrong cell fails here.
   EXPECT_EQ(cells.size(), 3u * 2u * 1u * integratorNames().size() * 2u);
   const std::set<std::string> verdicts = {"stable", "recovered", "failed", "n/a", "too_slow"};

@@ -39,7 +39,6 @@ class SymplecticEuler final : public Integrator {
   /// Symplectic Euler oscillates around a modified energy: the bound is the largest swing of
   /// the measured energy in a step at the substep the last step took (see the .cpp).
   double energyTolerance() const override;
-  static constexpr double kBlowUpTolerance = 0.5;
 
   /// The largest stable step at positions x (s): 2/omega_max, reduced for stiffness damping
   /// beta to (2/omega)(sqrt(1 + zeta^2) - zeta) with zeta = beta omega / 2.
