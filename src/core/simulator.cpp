@@ -242,7 +242,12 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
   if (Status s = acceptance_.converged(r, dim()); !s) return s;
   if (Status s = acceptance_.valid(*model_, state_.x); !s) return s;
   const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
-  const double elastic = model_->evaluate(state_.x, EvalRequest{}).energy;
+  const EvalResult end = model_->evaluate(state_.x, EvalRequest{});
+  if (!end.inDomain) {
+    return Error{"element " + std::to_string(end.firstBadElement) +
+                 " left its material's domain in the step (inverted or collapsed)"};
+  }
+  const double elastic = end.energy;
   energy.start = energyStart;
   energy.end = kinetic + elastic - gravityForce_.dot(state_.x);
   energy.held = std::max(energyStart + gravityForce_.dot(backup_.x), kinetic + elastic);
@@ -298,6 +303,7 @@ StepReport Simulator::step(double dt) {
     cleanSteps_ = 0;
   }
   int substeps = std::max(minSubsteps, currentSubsteps_);
+  std::string firstError;
   for (int attempt = 0; attempt <= settings_.maxRetries; ++attempt) {
     StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
     if (r.ok && !(state_.x.allFinite() && state_.v.allFinite())) {
@@ -335,6 +341,7 @@ StepReport Simulator::step(double dt) {
     }
     total.ok = false;
     total.error = r.error;
+    if (firstError.empty()) firstError = r.error;
     state_ = backup_;
     integrator_->invalidate();
     if (!r.retryable) break;
@@ -342,6 +349,10 @@ StepReport Simulator::step(double dt) {
       ++total.rollbacks;
       substeps = std::max(substeps, r.substeps) * 2;
     }
+  }
+  if (!total.ok && !firstError.empty() && firstError != total.error) {
+    // The retries may fail for another reason (a substep limit): the first one says what went wrong.
+    total.error += " (first attempt: " + firstError + ")";
   }
   if (!total.ok) {
     energyNow_ = energyStart;
