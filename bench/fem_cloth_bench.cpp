@@ -7,11 +7,13 @@
 //   KernelHessian/<model>   its PSD-projected stress Hessian
 //   Assembly/<n>            membrane gradient and projected Hessian of an n x n grid
 //   Step/<integrator>/<n>   one step of the hanging cloth (n x n) in steady state
+//   StepBending/<model>/<n> the same with bending (backward Euler), per bending model
 //   HangingCloth65          the 2 s run of config/hanging_cloth_fast.yaml
 #include <benchmark/benchmark.h>
 
 #include <random>
 
+#include "fem_cloth/core/bending.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
@@ -166,6 +168,14 @@ int main(int argc, char** argv) {
       if (n <= c.largest) b->Arg(n);
     }
     b->Unit(benchmark::kMillisecond)->MinTime(0.3);
+  }
+  // The hanging cloth with bending (1e-5 N m, as in the contact scenes) under each bending model,
+  // backward Euler: what a bending model costs per step (docs/bending.md).
+  for (const std::string& model : bendingModelNames()) {
+    auto* b = benchmark::RegisterBenchmark(("StepBending/" + model).c_str(), [model](benchmark::State& s) {
+      step(s, {"integrator.name=backward_euler", "bending.stiffness=1e-5", "bending.model=" + model});
+    });
+    b->Arg(17)->Arg(33)->Unit(benchmark::kMillisecond)->MinTime(0.3);
   }
   benchmark::RegisterBenchmark("HangingCloth65", hangingCloth65)
       ->Unit(benchmark::kMillisecond)

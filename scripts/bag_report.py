@@ -11,8 +11,14 @@ and writes to DIR:
   energy.png     kinetic, strain, gravity, total and the energy-balance error over time
 
 Runs with Debian's /usr/bin/python3 (python3-rosbag, python3-matplotlib, python3-numpy).
+Exit status: 0; 2 on bad input (a missing, unreadable or damaged bag, one without a mesh or
+states, states that do not fit the mesh or hold non-finite positions, an output folder that
+cannot be made); 3 on an unexpected error. Every error is one line on stderr. The pictures are
+written next to their names and renamed when complete.
 """
 import argparse
+import contextlib
+import io
 import os
 import sys
 
@@ -24,21 +30,55 @@ except ImportError as e:  # pragma: no cover - depends on the machine
              "(scripts/install-deps) and run with /usr/bin/python3")
 
 
+class BadInput(Exception):
+    """A problem with the bag or the options: exit status 2."""
+
+
 def read_bag(path, node):
     mesh, states, energies, stats = None, [], [], []
-    with rosbag.Bag(path) as bag:
-        for topic, msg, _ in bag.read_messages(topics=[node + "/mesh", node + "/state",
-                                                       node + "/energy", node + "/stats"]):
-            if topic.endswith("/mesh") and mesh is None:
-                mesh = msg
-            elif topic.endswith("/state"):
-                states.append((msg.header.stamp.to_sec(), msg.step,
-                               np.array([[p.x, p.y, p.z] for p in msg.positions])))
-            elif topic.endswith("/energy"):
-                energies.append(msg)
-            elif topic.endswith("/stats"):
-                stats.append(msg)
+    # rosbag prints its own warnings to stderr (a definition it cannot parse): not a second line.
+    try:
+        with contextlib.redirect_stderr(io.StringIO()), rosbag.Bag(path) as bag:
+            for topic, msg, _ in bag.read_messages(topics=[node + "/mesh", node + "/state",
+                                                           node + "/energy", node + "/stats"]):
+                if topic.endswith("/mesh") and mesh is None:
+                    mesh = msg
+                elif topic.endswith("/state"):
+                    states.append((msg.header.stamp.to_sec(), msg.step,
+                                   np.array([[p.x, p.y, p.z] for p in msg.positions], dtype=float)))
+                elif topic.endswith("/energy"):
+                    energies.append(msg)
+                elif topic.endswith("/stats"):
+                    stats.append(msg)
+    except Exception as e:  # noqa: BLE001 - rosbag, genpy, struct and lz4 errors of a damaged bag
+        raise BadInput(f"cannot read bag '{path}': {type(e).__name__}: {e}")
     return mesh, states, energies, stats
+
+
+def check_run(path, mesh, states):
+    """The states must fit the mesh: the renderer indexes their positions by its triangles."""
+    n = len(mesh.vertices)
+    if n == 0 or not mesh.triangles:
+        raise BadInput(f"{path}: the mesh holds no vertices or no triangles")
+    for t in mesh.triangles:
+        if max(t.vertex_indices) >= n:
+            raise BadInput(f"{path}: a mesh triangle names vertex {max(t.vertex_indices)} of {n}")
+    for _, step, x in states:
+        if x.shape != (n, 3):
+            raise BadInput(f"{path}: the state of step {step} has {len(x)} vertices, the mesh {n}")
+        if not np.isfinite(x).all():
+            raise BadInput(f"{path}: the state of step {step} has non-finite positions")
+
+
+def save(fig, path):
+    """Writes the figure next to its name, then renames it: no half-written picture."""
+    partial = f"{path}.partial-{os.getpid()}"
+    try:
+        fig.savefig(partial, format="png", dpi=110)
+        os.replace(partial, path)
+    finally:
+        if os.path.exists(partial):
+            os.remove(partial)
 
 
 def triangle_strains(rest, tris, x):
@@ -101,7 +141,7 @@ def render(mesh, states, out, count, strain_max=0.05):
     cbar = fig.colorbar(sm, ax=fig.axes, shrink=0.6, pad=0.05)
     cbar.set_label("strain: largest principal stretch - 1 (compression shows as 0)")
     path = os.path.join(out, "snapshots.png")
-    fig.savefig(path, dpi=110)
+    save(fig, path)
     plt.close(fig)
     return path
 
@@ -125,7 +165,7 @@ def plot_energy(energies, out):
     ax.legend(fontsize=8, ncol=2)
     path = os.path.join(out, "energy.png")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save(fig, path)
     plt.close(fig)
     return path
 
@@ -138,11 +178,15 @@ def main():
     parser.add_argument("--node", default="/fem_cloth_node")
     args = parser.parse_args()
     if not os.path.isfile(args.bag):
-        sys.exit(f"bag_report.py: no such bag: {args.bag}")
-    os.makedirs(args.out, exist_ok=True)
+        raise BadInput(f"no such bag: {args.bag}")
+    try:
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as e:
+        raise BadInput(f"cannot create the output folder '{args.out}': {e}")
     mesh, states, energies, stats = read_bag(args.bag, args.node)
     if mesh is None or not states:
-        sys.exit(f"bag_report.py: {args.bag} has no {args.node}/mesh or {args.node}/state")
+        raise BadInput(f"{args.bag} has no {args.node}/mesh or {args.node}/state")
+    check_run(args.bag, mesh, states)
     duration = states[-1][0] - states[0][0]
     rtf = [s.real_time_factor for s in stats if s.real_time_factor > 0]
     step_ms = [1e3 * s.wall_time for s in stats if s.wall_time > 0]
@@ -163,4 +207,11 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except BadInput as e:
+        print(f"bag_report.py: {e}", file=sys.stderr)
+        sys.exit(2)
+    except Exception as e:  # noqa: BLE001 - the last line of defence: one line, not a traceback
+        print(f"bag_report.py: unexpected error: {type(e).__name__}: {e}", file=sys.stderr)
+        sys.exit(3)

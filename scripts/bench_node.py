@@ -19,35 +19,14 @@ second in Python would cost more CPU than the simulation and disturb what is mea
 """
 import argparse
 import os
-import signal
-import socket
 import struct
 import subprocess
 import sys
 import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-def stop(process):
-    if process is None or process.poll() is not None:
-        return
-    try:
-        os.killpg(process.pid, signal.SIGINT)
-        process.wait(timeout=10)
-    except (subprocess.TimeoutExpired, ProcessLookupError):
-        try:
-            os.killpg(process.pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
+sys.path.insert(0, os.path.join(ROOT, "scripts", "lib"))
+import roscore  # noqa: E402  (the one way the scripts start a roscore)
 
 
 def slope(xs, ys):
@@ -78,24 +57,17 @@ def main():
     log_dir = args.log_dir or os.path.join(ROOT, "output", "bench", "node_logs")
     os.makedirs(log_dir, exist_ok=True)
 
-    port = free_port()
-    env = dict(os.environ)
-    env["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
-    env["ROS_LOG_DIR"] = log_dir
-    env["ROS_HOME"] = log_dir
-    os.environ.update(env)
-
     core = node = None
     try:
-        core = subprocess.Popen(["roscore", "-p", str(port)], env=env, start_new_session=True,
-                                stdout=open(os.path.join(log_dir, "roscore.log"), "w"),
-                                stderr=subprocess.STDOUT)
-        import rosgraph
-        deadline = time.time() + 20
-        while not rosgraph.is_master_online():
-            if time.time() > deadline:
-                sys.exit("bench_node: roscore did not start (see %s/roscore.log)" % log_dir)
-            time.sleep(0.2)
+        try:
+            core, port = roscore.start(log_dir)
+        except RuntimeError as e:
+            sys.exit("bench_node: %s" % e)
+        env = dict(os.environ)
+        env["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
+        env["ROS_LOG_DIR"] = log_dir
+        env["ROS_HOME"] = log_dir
+        os.environ.update(env)
 
         command = [node_bin, "__name:=cloth", "_scene_file:=" + args.scene,
                    "_mesh/rows:=%d" % args.rows, "_mesh/cols:=%d" % args.rows,
@@ -154,8 +126,8 @@ def main():
         measuring[0] = False
         window = time.time() - t0
     finally:
-        stop(node)
-        stop(core)
+        roscore.stop(node)
+        roscore.stop(core)
 
     if len(arrivals) < 2:
         sys.exit("bench_node: too few ~state messages (%d) to measure" % len(arrivals))

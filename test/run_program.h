@@ -40,4 +40,14 @@ inline ProgramResult runProgram(const std::string& program, const std::vector<st
   return r;
 }
 
+/// runProgram with a time bound: the program is killed (SIGKILL) after `seconds`. A program
+/// that is killed, by the bound or by a signal of its own (an abort), has status 128 + the
+/// signal's number (timeout(1)'s convention), never 0, 2 or 3.
+inline ProgramResult runProgramWithin(int seconds, const std::string& program,
+                                      const std::vector<std::string>& args, const TempDir& scratch) {
+  std::vector<std::string> all = {"-s", "KILL", std::to_string(seconds), program};
+  all.insert(all.end(), args.begin(), args.end());
+  return runProgram("/usr/bin/timeout", all, scratch);
+}
+
 }  // namespace fem_cloth::test

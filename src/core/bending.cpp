@@ -1,10 +1,11 @@
 #include "fem_cloth/core/bending.h"
 
+#include "fem_cloth/core/bending_midedge.h"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <tuple>
 
 namespace fem_cloth {
@@ -55,31 +56,9 @@ double cotangentAt(const Vector3d& apex, const Vector3d& p, const Vector3d& q) {
   return u.dot(v) / u.cross(v).norm();
 }
 
-/// Closest PSD matrix (Frobenius): negative eigenvalues set to zero.
-HingeMatrix clampNegativeEigenvalues(const HingeMatrix& H) {
-  const Eigen::SelfAdjointEigenSolver<HingeMatrix> solver(H);
-  const HingeVector clamped = solver.eigenvalues().cwiseMax(0.0);
-  const HingeMatrix P =
-      solver.eigenvectors() * clamped.asDiagonal() * solver.eigenvectors().transpose();
-  // V D V^T is symmetric only up to round-off; the assembled matrix should be exactly symmetric.
-  return 0.5 * (P + P.transpose());
-}
-
 /// A1 + A2: the rest areas of the hinge's two triangles (m^2).
 double restAreaSum(const RestState& rest, const Hinge& hinge) {
   return rest.restArea[hinge.triangles[0]] + rest.restArea[hinge.triangles[1]];
-}
-
-HingePositions hingeAt(const VectorX& x, const Hinge& hinge) {
-  HingePositions X;
-  for (int a = 0; a < 4; ++a) X.col(a) = x.segment<3>(3 * hinge.vertices[a]);
-  return X;
-}
-
-std::string formatValue(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
 }
 
 }  // namespace
@@ -126,6 +105,21 @@ std::vector<Hinge> buildHinges(const Mesh& mesh) {
 double bendingStiffness(double youngsModulus, double thickness, double poissonRatio) {
   return youngsModulus * thickness * thickness * thickness /
          (12.0 * (1.0 - poissonRatio * poissonRatio));
+}
+
+HingePositions hingePositions(const VectorX& x, const Hinge& hinge) {
+  HingePositions X;
+  for (int a = 0; a < 4; ++a) X.col(a) = x.segment<3>(3 * hinge.vertices[a]);
+  return X;
+}
+
+HingeMatrix clampNegativeEigenvalues(const HingeMatrix& H) {
+  const Eigen::SelfAdjointEigenSolver<HingeMatrix> solver(H);
+  const HingeVector clamped = solver.eigenvalues().cwiseMax(0.0);
+  const HingeMatrix P =
+      solver.eigenvectors() * clamped.asDiagonal() * solver.eigenvectors().transpose();
+  // V D V^T is symmetric only up to round-off; the assembled matrix should be exactly symmetric.
+  return 0.5 * (P + P.transpose());
 }
 
 bool dihedralAngle(const HingePositions& x, double* angle, HingeVector* gradient,
@@ -209,7 +203,7 @@ void HingeTerm::bindHessian(const SparseHessian& hessian) {
 }
 
 HingePositions HingeTerm::gather(const VectorX& x, std::size_t hinge) const {
-  return hingeAt(x, hinges_[hinge]);
+  return hingePositions(x, hinges_[hinge]);
 }
 
 EvalResult HingeTerm::reduce(const EvalRequest& request) const {
@@ -240,7 +234,7 @@ QuadraticBending::QuadraticBending(const Mesh& mesh, const RestState& rest, doub
   stencils_.reserve(hinges_.size());
   weights_.reserve(hinges_.size());
   for (const Hinge& hinge : hinges_) {
-    const HingePositions X = hingeAt(mesh.restPositions, hinge);
+    const HingePositions X = hingePositions(mesh.restPositions, hinge);
     // Bergou et al. 2006: the vector K0 of the paper.
     const double c01 = cotangentAt(X.col(0), X.col(1), X.col(2));
     const double c02 = cotangentAt(X.col(0), X.col(1), X.col(3));
@@ -321,7 +315,7 @@ DihedralBending::DihedralBending(const Mesh& mesh, const RestState& rest, double
   restAngles_.reserve(hinges_.size());
   weights_.reserve(hinges_.size());
   for (const Hinge& hinge : hinges_) {
-    const HingePositions X = hingeAt(mesh.restPositions, hinge);
+    const HingePositions X = hingePositions(mesh.restPositions, hinge);
     double restAngle = 0.0;
     // Rest triangles have positive area (computeRestState), so the angle is defined.
     dihedralAngle(X, &restAngle);
@@ -388,20 +382,23 @@ void DihedralBending::elementConstraintStiffness(Index h, double* K) const {
 // ---------------------------------------------------------------------------------------------
 
 const std::vector<std::string>& bendingModelNames() {
-  static const std::vector<std::string> names = {"quadratic", "dihedral"};
+  static const std::vector<std::string> names = {"midedge", "quadratic", "dihedral"};
   return names;
 }
 
 Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
-                                                      const std::string& model, double stiffness) {
+                                                      const BendingSpec& spec) {
   const auto& names = bendingModelNames();
-  if (std::find(names.begin(), names.end(), model) == names.end()) {
+  if (std::find(names.begin(), names.end(), spec.model) == names.end()) {
     std::string known;
     for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
-    return Error{"unknown bending model '" + model + "' (known: " + known + ")"};
+    return Error{"unknown bending model '" + spec.model + "' (known: " + known + ")"};
   }
-  if (!std::isfinite(stiffness) || stiffness < 0.0) {
-    return Error{"bending stiffness must be finite and >= 0 (N m), got " + formatValue(stiffness)};
+  if (!std::isfinite(spec.stiffness) || spec.stiffness < 0.0) {
+    return Error{"bending stiffness must be finite and >= 0 (N m), got " + numberText(spec.stiffness)};
+  }
+  if (!(spec.poissonRatio >= 0.0 && spec.poissonRatio < 0.5)) {
+    return Error{"bending Poisson ratio must be in [0, 0.5), got " + numberText(spec.poissonRatio)};
   }
   if (mesh.dim != 3) {
     return Error{"bending needs a cloth (3D) mesh; got a planar mesh (dim " +
@@ -412,11 +409,31 @@ Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const Re
                  " triangles) does not belong to the mesh (" +
                  std::to_string(mesh.numTriangles()) + " triangles)"};
   }
-  if (stiffness == 0.0) return std::unique_ptr<EnergyTerm>();
-  if (model == "quadratic") {
-    return std::unique_ptr<EnergyTerm>(std::make_unique<QuadraticBending>(mesh, rest, stiffness));
+  if (!spec.held.empty() && static_cast<Index>(spec.held.size()) != mesh.numVertices()) {
+    return Error{"bending: the held-vertex list has " + std::to_string(spec.held.size()) +
+                 " entries for " + std::to_string(mesh.numVertices()) + " vertices"};
   }
-  return std::unique_ptr<EnergyTerm>(std::make_unique<DihedralBending>(mesh, rest, stiffness));
+  if (spec.stiffness == 0.0) return std::unique_ptr<EnergyTerm>();
+  if (spec.model == "midedge") {
+    MidedgeOptions options;
+    options.poissonRatio = spec.poissonRatio;
+    options.held = spec.held;
+    return std::unique_ptr<EnergyTerm>(
+        std::make_unique<MidedgeBending>(mesh, rest, spec.stiffness, options));
+  }
+  if (spec.model == "quadratic") {
+    return std::unique_ptr<EnergyTerm>(
+        std::make_unique<QuadraticBending>(mesh, rest, spec.stiffness));
+  }
+  return std::unique_ptr<EnergyTerm>(std::make_unique<DihedralBending>(mesh, rest, spec.stiffness));
+}
+
+Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
+                                                      const std::string& model, double stiffness) {
+  BendingSpec spec;
+  spec.model = model;
+  spec.stiffness = stiffness;
+  return makeBendingTerm(mesh, rest, spec);
 }
 
 }  // namespace fem_cloth

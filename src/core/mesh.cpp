@@ -3,10 +3,11 @@
 #include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
+
+#include "fem_cloth/core/text_file.h"
 
 namespace fem_cloth {
 
@@ -141,6 +142,9 @@ Expected<Mesh> parseObj(const std::string& text, int dim, const std::string& sou
                        " has a non-finite coordinate"};
         }
       }
+      if (coords.size() / 3 >= static_cast<std::size_t>(kMaxVertices)) {
+        return Error{where + "more than " + std::to_string(kMaxVertices) + " vertices"};
+      }
       coords.insert(coords.end(), p, p + 3);
     } else if (tag == "f") {
       const Index numVertices = static_cast<Index>(coords.size() / 3);
@@ -151,6 +155,10 @@ Expected<Mesh> parseObj(const std::string& text, int dim, const std::string& sou
         std::string why;
         if (!parseCorner(token, numVertices, &idx, &why)) return Error{where + why};
         corners.push_back(idx);
+        // A face of k corners is split into k - 2 triangles.
+        if (mesh.triangles.size() + corners.size() > static_cast<std::size_t>(kMaxTriangles) + 2) {
+          return Error{where + "more than " + std::to_string(kMaxTriangles) + " triangles"};
+        }
       }
       if (corners.size() < 3) {
         return Error{where + "face needs at least 3 vertices, got " +
@@ -176,11 +184,9 @@ Expected<Mesh> parseObj(const std::string& text, int dim, const std::string& sou
 }
 
 Expected<Mesh> loadObj(const std::string& path, int dim) {
-  std::ifstream file(path);
-  if (!file) return Error{"cannot open OBJ file '" + path + "'"};
-  std::stringstream buffer;
-  buffer << file.rdbuf();
-  return parseObj(buffer.str(), dim, path);
+  Expected<std::string> text = readTextFile(path, kMaxObjFileBytes, "OBJ file");
+  if (!text) return Error{text.error()};
+  return parseObj(*text, dim, path);
 }
 
 Eigen::Vector3d vertex3(const Mesh& mesh, const VectorX& x, Index i) {
@@ -315,11 +321,22 @@ MeshValidation validateMesh(const Mesh& mesh, double minQuality) {
   if (nonManifold > 5) {
     report.warnings.push_back(std::to_string(nonManifold - 5) + " more non-manifold edges");
   }
-  Index unused = 0;
-  for (Index i = 0; i < n; ++i) unused += used[i] ? 0 : 1;
-  if (unused > 0 && !mesh.triangles.empty()) {
-    report.warnings.push_back(std::to_string(unused) +
-                              " vertices belong to no triangle (they only fall under gravity)");
+  // A vertex of no triangle gets no mass from the lumped mass matrix: the implicit steppers'
+  // system is singular there and an explicit step divides by zero. Renumbering the mesh without
+  // it would shift every vertex index a scene's pins and forces refer to, so it is an error.
+  if (!mesh.triangles.empty()) {
+    Index unused = 0;
+    for (Index i = 0; i < n; ++i) {
+      if (used[i]) continue;
+      if (++unused <= 3) {
+        report.errors.push_back("vertex " + std::to_string(i) + " (number " + std::to_string(i + 1) +
+                                " in an OBJ file) belongs to no triangle, so it would have no mass; "
+                                "remove it");
+      }
+    }
+    if (unused > 3) {
+      report.errors.push_back(std::to_string(unused - 3) + " more vertices belong to no triangle");
+    }
   }
   return report;
 }

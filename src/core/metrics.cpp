@@ -1,6 +1,7 @@
 #include "fem_cloth/core/metrics.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <limits>
 
 #include "fem_cloth/core/svd.h"
@@ -43,6 +44,23 @@ void triangleStrains(const Mesh& mesh, const RestState& rest, const VectorX& x,
                                     : svd3x2(deformationGradient<3>(mesh, rest, x, t)).sigma[0];
     out[t] = s1 - 1.0;
   }
+}
+
+std::string stateHash(const VectorX& x, const VectorX& v) {
+  std::uint64_t h = 14695981039346656037ull;
+  auto feed = [&h](const VectorX& values) {
+    const unsigned char* bytes = reinterpret_cast<const unsigned char*>(values.data());
+    const std::size_t n = static_cast<std::size_t>(values.size()) * sizeof(double);
+    for (std::size_t i = 0; i < n; ++i) {
+      h ^= bytes[i];
+      h *= 1099511628211ull;
+    }
+  };
+  feed(x);
+  feed(v);
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(h));
+  return text;
 }
 
 }  // namespace fem_cloth

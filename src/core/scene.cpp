@@ -7,36 +7,85 @@
 #include <sstream>
 
 #include "fem_cloth/core/bending.h"
+#include "fem_cloth/core/contact/self_intersection.h"
 #include "fem_cloth/core/membrane.h"
 
 namespace fem_cloth {
 
 namespace {
 
-Status positiveFinite(double value, const std::string& key, const std::string& unit) {
-  if (!(value > 0.0) || !std::isfinite(value)) {
-    return Error{key + " must be positive and finite (" + unit + "), got " + numberText(value)};
-  }
-  return Status::success();
-}
-
-Status nonNegativeFinite(double value, const std::string& key, const std::string& unit) {
-  if (!(value >= 0.0) || !std::isfinite(value)) {
-    return Error{key + " must be zero or positive and finite (" + unit + "), got " + numberText(value)};
-  }
-  return Status::success();
-}
+// Sane ranges (docs/scenes.md): far beyond any cloth and scene this simulates, far inside where
+// the arithmetic overflows.
+constexpr double kMaxSpeed = 1e3;           // m/s: pins, obstacles, the initial velocity
+constexpr double kMaxDuration = 1e9;        // s: durations and times of scripted events
+constexpr double kMaxFriction = 10.0;       // Coulomb coefficients
+constexpr double kMinModulus = 1.0;         // Pa: E, mu
+constexpr double kMaxModulus = 1e12;        // Pa: E, mu, lambda (diamond: 1.2e12)
+constexpr double kMinClothSize = 1e-4;      // m: a grid's width and height, a mesh's extent
+constexpr double kMaxClothSize = 1e3;       // m
+constexpr double kMinObstacleSize = 1e-6;   // m: radii and box sizes
 
 Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
   if (!v.allFinite()) return Error{key + " must be finite"};
   return Status::success();
 }
 
+// The sane ranges of docs/scenes.md: finite values far outside what any cloth, time step or
+// load can mean (damping.mass: 1e300) are refused like non-finite ones, before they overflow
+// an energy or make a run of 10^300 substeps.
+
+/// value in [lo, hi] (unit: SI, for the message).
+Status inRange(double value, double lo, double hi, const std::string& key, const std::string& unit) {
+  if (!(value >= lo && value <= hi)) {
+    return Error{key + " must be in [" + numberText(lo) + ", " + numberText(hi) + "]" +
+                 (unit.empty() ? "" : " " + unit) + ", got " + numberText(value)};
+  }
+  return Status::success();
+}
+
+/// value in (0, hi].
+Status positiveUpTo(double value, double hi, const std::string& key, const std::string& unit) {
+  if (!(value > 0.0 && value <= hi)) {
+    return Error{key + " must be in (0, " + numberText(hi) + "] " + unit + ", got " + numberText(value)};
+  }
+  return Status::success();
+}
+
+Status countInRange(int value, int lo, int hi, const std::string& key) {
+  if (value < lo || value > hi) {
+    return Error{key + " must be a whole number in [" + std::to_string(lo) + ", " +
+                 std::to_string(hi) + "], got " + std::to_string(value)};
+  }
+  return Status::success();
+}
+
+/// A finite vector no longer than maxNorm.
+Status boundedVector(const Eigen::Vector3d& v, double maxNorm, const std::string& key,
+                     const std::string& unit) {
+  FEM_CLOTH_CHECK(finiteVector(v, key));
+  if (v.norm() > maxNorm) {
+    return Error{key + " must be at most " + numberText(maxNorm) + " " + unit + " long, got " +
+                 numberText(v.norm()) + " " + unit};
+  }
+  return Status::success();
+}
+
+/// A position (m): every coordinate within kMaxCoordinate of the origin.
+Status boundedPosition(const Eigen::Vector3d& p, const std::string& key) {
+  FEM_CLOTH_CHECK(finiteVector(p, key));
+  if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) {
+    return Error{key + " must lie within " + numberText(kMaxCoordinate) +
+                 " m of the origin in every coordinate, got [" + numberText(p.x()) + ", " +
+                 numberText(p.y()) + ", " + numberText(p.z()) + "]"};
+  }
+  return Status::success();
+}
+
 Status checkTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& key) {
   for (std::size_t k = 0; k < trajectory.size(); ++k) {
     const std::string at = key + ".trajectory[" + std::to_string(k) + "]";
-    if (Status s = nonNegativeFinite(trajectory[k].time, at + ".time", "s"); !s) return s;
-    if (Status s = finiteVector(trajectory[k].offset, at + ".offset"); !s) return s;
+    FEM_CLOTH_CHECK(inRange(trajectory[k].time, 0.0, kMaxDuration, at + ".time", "s"));
+    FEM_CLOTH_CHECK(boundedVector(trajectory[k].offset, kMaxCoordinate, at + ".offset", "m"));
     if (k > 0 && !(trajectory[k].time > trajectory[k - 1].time)) {
       return Error{at + ".time must be later than the point before (" +
                    numberText(trajectory[k - 1].time) + " s), got " + numberText(trajectory[k].time)};
@@ -44,13 +93,6 @@ Status checkTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std
   }
   return Status::success();
 }
-
-#define FEM_CLOTH_CHECK(expr)     \
-  do {                            \
-    if (Status check_ = (expr); !check_) { \
-      return Error{check_.error()}; \
-    }                             \
-  } while (false)
 
 }  // namespace
 
@@ -60,12 +102,36 @@ const std::vector<std::string>& integratorNames() {
   return names;
 }
 
-Status validateScene(const Scene& s) {
+namespace {
+
+// A scene's name becomes a folder name (fem_cloth_output/<name>): one word, so that it cannot
+// climb out of the output folder (`name: ../../x`) or name a hidden or special entry.
+Status checkName(const std::string& name) {
+  const bool word = !name.empty() && name.size() <= 100 && name[0] != '.' && name[0] != '-' &&
+                    std::all_of(name.begin(), name.end(), [](char c) {
+                      return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' ||
+                             c == '.';
+                    });
+  if (!word) {
+    return Error{"name must be one word of at most 100 letters, digits, '_', '-' and '.' (not "
+                 "starting with '.' or '-'; it names the output folder), got '" + name + "'"};
+  }
+  return Status::success();
+}
+
+Status validateMeshKeys(const Scene& s) {
   if (s.meshType == "grid") {
-    if (s.grid.rows < 2) return Error{"mesh.rows must be at least 2, got " + std::to_string(s.grid.rows)};
-    if (s.grid.cols < 2) return Error{"mesh.cols must be at least 2, got " + std::to_string(s.grid.cols)};
-    FEM_CLOTH_CHECK(positiveFinite(s.grid.width, "mesh.width", "m"));
-    FEM_CLOTH_CHECK(positiveFinite(s.grid.height, "mesh.height", "m"));
+    FEM_CLOTH_CHECK(countInRange(s.grid.rows, 2, kMaxVertices, "mesh.rows"));
+    FEM_CLOTH_CHECK(countInRange(s.grid.cols, 2, kMaxVertices, "mesh.cols"));
+    const long long vertices = static_cast<long long>(s.grid.rows) * s.grid.cols;
+    if (vertices > kMaxVertices) {
+      return Error{"mesh.rows x mesh.cols = " + std::to_string(s.grid.rows) + " x " +
+                   std::to_string(s.grid.cols) + " = " + std::to_string(vertices) +
+                   " vertices, more than the " + std::to_string(kMaxVertices) + " allowed"};
+    }
+    FEM_CLOTH_CHECK(inRange(s.grid.width, kMinClothSize, kMaxClothSize, "mesh.width", "m"));
+    FEM_CLOTH_CHECK(inRange(s.grid.height, kMinClothSize, kMaxClothSize, "mesh.height", "m"));
+    FEM_CLOTH_CHECK(boundedPosition({s.grid.origin[0], s.grid.origin[1], s.grid.origin[2]}, "mesh.origin"));
     if (s.grid.dim != 2 && s.grid.dim != 3) {
       return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.grid.dim)};
     }
@@ -77,23 +143,42 @@ Status validateScene(const Scene& s) {
   if ((s.meshType != "grid") && s.dim != 2 && s.dim != 3) {
     return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.dim)};
   }
+  if (s.meshType == "explicit" && s.explicitMesh.restPositions.size() > s.dim * Eigen::Index{kMaxVertices}) {
+    return Error{"mesh.vertices has more than the " + std::to_string(kMaxVertices) + " vertices allowed"};
+  }
   if (!(s.minTriangleQuality >= 0.0 && s.minTriangleQuality < 1.0)) {
     return Error{"mesh.min_quality must be in [0, 1), got " + numberText(s.minTriangleQuality)};
   }
+  return Status::success();
+}
+
+Status validateMaterialKeys(const Scene& s) {
   if (Expected<Material> m = makeMaterial(s.materialModel, Lame{}); !m) {
     return Error{"material.model: " + m.error()};
   }
   if (Expected<Lame> lame = membraneLame(s); !lame) return Error{lame.error()};
-  FEM_CLOTH_CHECK(positiveFinite(s.thickness, "material.thickness", "m"));
-  FEM_CLOTH_CHECK(positiveFinite(s.density, "material.density", "kg/m^3"));
-  FEM_CLOTH_CHECK(nonNegativeFinite(s.bendingStiffness, "bending.stiffness", "N m"));
+  FEM_CLOTH_CHECK(inRange(s.thickness, 1e-6, 0.1, "material.thickness", "m"));
+  FEM_CLOTH_CHECK(inRange(s.density, 1.0, 1e5, "material.density", "kg/m^3"));
+  FEM_CLOTH_CHECK(inRange(s.bendingStiffness, 0.0, 1e4, "bending.stiffness", "N m"));
   if (std::find(bendingModelNames().begin(), bendingModelNames().end(), s.bendingModel) ==
       bendingModelNames().end()) {
-    return Error{"bending.model must be quadratic or dihedral, got '" + s.bendingModel + "'"};
+    return Error{"bending.model must be midedge, quadratic or dihedral, got '" + s.bendingModel + "'"};
   }
-  FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.massProportional, "damping.mass", "1/s"));
-  FEM_CLOTH_CHECK(nonNegativeFinite(s.damping.stiffnessProportional, "damping.stiffness", "s"));
-  FEM_CLOTH_CHECK(finiteVector(s.gravity, "gravity"));
+  if (!(s.bendingPoissonRatio >= 0.0 && s.bendingPoissonRatio < 0.5)) {
+    return Error{"bending.poisson_ratio must be in [0, 0.5), got " + numberText(s.bendingPoissonRatio)};
+  }
+  if (s.integrator == "xpbd" && s.bendingStiffness > 0.0 && s.bendingModel == "midedge") {
+    // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge element
+    // reads 12 vertices. Said when the scene is loaded rather than at the first step.
+    return Error{"bending.model: xpbd needs a bending model with a constraint form, quadratic or "
+                 "dihedral, got 'midedge' (the default; set bending.model)"};
+  }
+  FEM_CLOTH_CHECK(inRange(s.damping.massProportional, 0.0, 1e4, "damping.mass", "1/s"));
+  FEM_CLOTH_CHECK(inRange(s.damping.stiffnessProportional, 0.0, 10.0, "damping.stiffness", "s"));
+  return boundedVector(s.gravity, 1e3, "gravity", "m/s^2");
+}
+
+Status validateIntegratorKeys(const Scene& s) {
   if (std::find(integratorNames().begin(), integratorNames().end(), s.integrator) ==
       integratorNames().end()) {
     return Error{"integrator.name: unknown integrator '" + s.integrator +
@@ -113,34 +198,39 @@ Status validateScene(const Scene& s) {
     }
     if (s.bendingStiffness > 0.0 && s.bendingModel != "quadratic") {
       return Error{"bending.model: projective_dynamics needs the quadratic bending model, got '" +
-                   s.bendingModel + "'"};
+                   s.bendingModel + "'" + (s.bendingModel == "midedge" ? " (the default; set bending.model: quadratic)" : "")};
     }
     if (s.damping.stiffnessProportional > 0.0) {
       return Error{"damping.stiffness: projective_dynamics has no stiffness damping; set it to 0 "
                    "and use damping.mass"};
     }
   }
-  FEM_CLOTH_CHECK(positiveFinite(s.dt, "integrator.dt", "s"));
-  if (s.substeps < 1) return Error{"integrator.substeps must be at least 1, got " + std::to_string(s.substeps)};
-  if (s.maxRetries < 0) return Error{"integrator.max_retries must be >= 0"};
+  FEM_CLOTH_CHECK(inRange(s.dt, 1e-7, 100.0, "integrator.dt", "s"));
+  FEM_CLOTH_CHECK(countInRange(s.substeps, 1, 1'000'000, "integrator.substeps"));
+  FEM_CLOTH_CHECK(countInRange(s.maxRetries, 0, 20, "integrator.max_retries"));
   if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
     return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(s.cflSafety)};
   }
-  if (s.newton.maxIterations < 1) return Error{"integrator.max_newton_iterations must be at least 1"};
-  FEM_CLOTH_CHECK(positiveFinite(s.newton.tolerance, "integrator.newton_tolerance", "relative"));
-  if (s.newton.maxBacktracks < 0) return Error{"integrator.max_backtracks must be >= 0"};
-  FEM_CLOTH_CHECK(positiveFinite(s.newton.linear.cgTolerance, "integrator.cg_tolerance", "relative"));
-  if (s.iterations < 1) return Error{"integrator.iterations must be at least 1"};
+  FEM_CLOTH_CHECK(countInRange(s.newton.maxIterations, 1, 10'000, "integrator.max_newton_iterations"));
+  FEM_CLOTH_CHECK(inRange(s.newton.tolerance, 1e-12, 10.0, "integrator.newton_tolerance", "1/s"));
+  FEM_CLOTH_CHECK(countInRange(s.newton.maxBacktracks, 0, 200, "integrator.max_backtracks"));
+  FEM_CLOTH_CHECK(inRange(s.newton.linear.cgTolerance, 1e-16, 0.1, "integrator.cg_tolerance", ""));
+  FEM_CLOTH_CHECK(countInRange(s.newton.linear.cgMaxIterations, 1, 10'000'000, "integrator.cg_max_iterations"));
+  FEM_CLOTH_CHECK(countInRange(s.iterations, 1, 100'000, "integrator.iterations"));
   if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
     return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(s.chebyshevRho)};
   }
+  return Status::success();
+}
+
+Status validateCommandKeys(const Scene& s) {
   for (std::size_t i = 0; i < s.pins.size(); ++i) {
     const std::string key = "pins[" + std::to_string(i) + "]";
     const ScenePin& p = s.pins[i];
     if (p.select.empty()) return Error{key + " selects no vertices"};
-    FEM_CLOTH_CHECK(finiteVector(p.offset, key + ".offset"));
-    FEM_CLOTH_CHECK(finiteVector(p.velocity, key + ".velocity"));
-    for (const auto& t : p.targets) FEM_CLOTH_CHECK(finiteVector(t, key + ".targets"));
+    FEM_CLOTH_CHECK(boundedVector(p.offset, kMaxCoordinate, key + ".offset", "m"));
+    FEM_CLOTH_CHECK(boundedVector(p.velocity, kMaxSpeed, key + ".velocity", "m/s"));
+    for (const auto& t : p.targets) FEM_CLOTH_CHECK(boundedPosition(t, key + ".targets"));
     FEM_CLOTH_CHECK(checkTrajectory(p.trajectory, key));
     if (!p.trajectory.empty() && !p.velocity.isZero()) {
       return Error{key + ": give velocity or trajectory, not both"};
@@ -151,20 +241,27 @@ Status validateScene(const Scene& s) {
     const std::string key = "forces[" + std::to_string(i) + "]";
     const SceneForce& f = s.forces[i];
     if (f.select.empty()) return Error{key + " selects no vertices"};
-    FEM_CLOTH_CHECK(finiteVector(f.force, key + ".force"));
-    FEM_CLOTH_CHECK(nonNegativeFinite(f.start, key + ".start", "s"));
+    FEM_CLOTH_CHECK(boundedVector(f.force, 1e6, key + ".force", "N"));
+    FEM_CLOTH_CHECK(inRange(f.start, 0.0, kMaxDuration, key + ".start", "s"));
     if (!(f.duration > 0.0)) return Error{key + ".duration must be positive (s)"};
   }
-  for (const auto& p : s.initialPositions) {
-    FEM_CLOTH_CHECK(finiteVector(p.position, "initial.positions"));
+  for (std::size_t i = 0; i < s.initialPositions.size(); ++i) {
+    FEM_CLOTH_CHECK(boundedPosition(s.initialPositions[i].position,
+                                    "initial.positions[" + std::to_string(i) + "].position"));
   }
-  FEM_CLOTH_CHECK(finiteVector(s.initialVelocity, "initial.velocity"));
-  FEM_CLOTH_CHECK(positiveFinite(s.duration, "duration", "s"));
-  // Contact.
-  FEM_CLOTH_CHECK(positiveFinite(s.contact.distance, "contact.distance", "m"));
-  FEM_CLOTH_CHECK(nonNegativeFinite(s.contact.stiffness, "contact.stiffness", "m/s^2"));
-  FEM_CLOTH_CHECK(positiveFinite(s.contact.frictionVelocity, "contact.friction_velocity", "m/s"));
-  FEM_CLOTH_CHECK(nonNegativeFinite(s.contact.selfFriction, "contact.self_friction", "dimensionless"));
+  return boundedVector(s.initialVelocity, kMaxSpeed, "initial.velocity", "m/s");
+}
+
+Status validateRunLength(const Scene& s) {
+  FEM_CLOTH_CHECK(positiveUpTo(s.duration, kMaxDuration, "duration", "s"));
+  return checkStepCount(s.duration, s.dt, s.substeps, "duration");
+}
+
+Status validateContactKeys(const Scene& s) {
+  FEM_CLOTH_CHECK(inRange(s.contact.distance, 1e-6, 1.0, "contact.distance", "m"));
+  FEM_CLOTH_CHECK(inRange(s.contact.stiffness, 0.0, 1e9, "contact.stiffness", "m/s^2"));
+  FEM_CLOTH_CHECK(inRange(s.contact.frictionVelocity, 1e-8, 1.0, "contact.friction_velocity", "m/s"));
+  FEM_CLOTH_CHECK(inRange(s.contact.selfFriction, 0.0, kMaxFriction, "contact.self_friction", ""));
   if (sceneHasContact(s)) {
     const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
     if (dim != 3) {
@@ -195,6 +292,18 @@ Status validateScene(const Scene& s) {
   return Status::success();
 }
 
+}  // namespace
+
+Status validateScene(const Scene& s) {
+  FEM_CLOTH_CHECK(checkName(s.name));
+  FEM_CLOTH_CHECK(validateMeshKeys(s));
+  FEM_CLOTH_CHECK(validateMaterialKeys(s));
+  FEM_CLOTH_CHECK(validateIntegratorKeys(s));
+  FEM_CLOTH_CHECK(validateCommandKeys(s));
+  FEM_CLOTH_CHECK(validateRunLength(s));
+  return validateContactKeys(s);
+}
+
 Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) {
   Obstacle o;
   o.name = e.name;
@@ -213,15 +322,22 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) 
     return Error{key + ".name must be letters, digits and underscores (not starting with a digit), "
                  "got '" + o.name + "'"};
   }
-  FEM_CLOTH_CHECK(finiteVector(e.center, key + ".center"));
-  FEM_CLOTH_CHECK(finiteVector(e.orientation, key + ".orientation"));
+  FEM_CLOTH_CHECK(boundedPosition(e.center, key + ".center"));
+  for (int k = 0; k < 3; ++k) {
+    FEM_CLOTH_CHECK(inRange(e.orientation[k], -10.0, 10.0,
+                            key + ".orientation[" + std::to_string(k) + "]", "rad"));
+  }
   o.geometry.linear() = rotationFromRpy(e.orientation);
   o.geometry.translation() = e.center;
   switch (o.shape.type) {
     case ShapeType::Plane: {
-      FEM_CLOTH_CHECK(finiteVector(e.point, key + ".point"));
+      FEM_CLOTH_CHECK(boundedPosition(e.point, key + ".point"));
       FEM_CLOTH_CHECK(finiteVector(e.normal, key + ".normal"));
-      if (!(e.normal.norm() > 0.0)) return Error{key + ".normal must not be zero"};
+      // Any length, but one whose direction is defined: not zero, not so small or large that
+      // normalising it under- or overflows.
+      if (!(e.normal.norm() > 1e-100 && e.normal.norm() < 1e100)) {
+        return Error{key + ".normal must not be zero, got length " + numberText(e.normal.norm())};
+      }
       // The shape frame's z axis along the normal.
       o.geometry.linear() =
           Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), e.normal.normalized()).toRotationMatrix();
@@ -229,26 +345,27 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) 
       break;
     }
     case ShapeType::Sphere:
-      FEM_CLOTH_CHECK(positiveFinite(e.radius, key + ".radius", "m"));
+      FEM_CLOTH_CHECK(inRange(e.radius, kMinObstacleSize, kMaxCoordinate, key + ".radius", "m"));
       o.shape.radius = e.radius;
       break;
     case ShapeType::Box:
       for (int k = 0; k < 3; ++k) {
-        FEM_CLOTH_CHECK(positiveFinite(e.size[k], key + ".size[" + std::to_string(k) + "]", "m"));
+        FEM_CLOTH_CHECK(inRange(e.size[k], kMinObstacleSize, kMaxCoordinate,
+                                key + ".size[" + std::to_string(k) + "]", "m"));
       }
       o.shape.halfExtents = 0.5 * e.size;
       break;
     case ShapeType::Capsule:
-      FEM_CLOTH_CHECK(positiveFinite(e.radius, key + ".radius", "m"));
-      FEM_CLOTH_CHECK(nonNegativeFinite(e.length, key + ".length", "m"));
+      FEM_CLOTH_CHECK(inRange(e.radius, kMinObstacleSize, kMaxCoordinate, key + ".radius", "m"));
+      FEM_CLOTH_CHECK(inRange(e.length, 0.0, kMaxCoordinate, key + ".length", "m"));
       o.shape.radius = e.radius;
       o.shape.halfLength = 0.5 * e.length;
       break;
   }
-  FEM_CLOTH_CHECK(nonNegativeFinite(e.friction, key + ".friction", "dimensionless"));
+  FEM_CLOTH_CHECK(inRange(e.friction, 0.0, kMaxFriction, key + ".friction", ""));
   o.friction = e.friction;
   o.frame = e.frame;
-  FEM_CLOTH_CHECK(finiteVector(e.velocity, key + ".velocity"));
+  FEM_CLOTH_CHECK(boundedVector(e.velocity, kMaxSpeed, key + ".velocity", "m/s"));
   o.velocity = e.velocity;
   FEM_CLOTH_CHECK(checkTrajectory(e.trajectory, key));
   o.trajectory = e.trajectory;
@@ -276,23 +393,15 @@ Expected<Lame> membraneLame(const Scene& s) {
   if (young) {
     if (!s.youngsModulus) return Error{"material.youngs_modulus is required with poisson_ratio"};
     if (!s.poissonRatio) return Error{"material.poisson_ratio is required with youngs_modulus"};
-    if (!(*s.youngsModulus > 0.0) || !std::isfinite(*s.youngsModulus)) {
-      return Error{"material.youngs_modulus must be positive and finite (Pa), got " +
-                   numberText(*s.youngsModulus)};
-    }
+    FEM_CLOTH_CHECK(inRange(*s.youngsModulus, kMinModulus, kMaxModulus, "material.youngs_modulus", "Pa"));
     if (!(*s.poissonRatio >= 0.0 && *s.poissonRatio < 0.5)) {
       return Error{"material.poisson_ratio must be in [0, 0.5), got " + numberText(*s.poissonRatio)};
     }
     volumetric = Lame::fromYoungPoisson(*s.youngsModulus, *s.poissonRatio);
   } else {
     if (!s.mu || !s.lambda) return Error{"material: mu and lambda must be given together"};
-    if (!(*s.mu > 0.0) || !std::isfinite(*s.mu)) {
-      return Error{"material.mu must be positive and finite (Pa), got " + numberText(*s.mu)};
-    }
-    if (!(*s.lambda >= 0.0) || !std::isfinite(*s.lambda)) {
-      return Error{"material.lambda must be zero or positive and finite (Pa), got " +
-                   numberText(*s.lambda)};
-    }
+    FEM_CLOTH_CHECK(inRange(*s.mu, kMinModulus, kMaxModulus, "material.mu", "Pa"));
+    FEM_CLOTH_CHECK(inRange(*s.lambda, 0.0, kMaxModulus, "material.lambda", "Pa"));
     volumetric = Lame{*s.mu, *s.lambda};
   }
   return Lame{volumetric.mu * s.thickness, volumetric.lambda * s.thickness};
@@ -320,6 +429,40 @@ Status SceneScript::applyDue(Simulator& sim) {
     if (!s) return s;
   }
   return Status::success();
+}
+
+Expected<std::vector<char>> heldVertices(const Scene& scene, Index numVertices) {
+  std::vector<char> held(static_cast<std::size_t>(numVertices), 0);
+  for (std::size_t i = 0; i < scene.pins.size(); ++i) {
+    if (std::isfinite(scene.pins[i].releaseAt)) continue;
+    Expected<std::vector<Index>> verts =
+        resolveSelection(scene.pins[i].select, scene, numVertices, "pins[" + std::to_string(i) + "]");
+    if (!verts) return Error{verts.error()};
+    for (Index v : *verts) held[static_cast<std::size_t>(v)] = 1;
+  }
+  return held;
+}
+
+Status checkStepCount(double duration, double dt, int substeps, const std::string& what) {
+  const double steps = std::ceil(duration / dt - 1e-9) * substeps;
+  if (!(steps <= static_cast<double>(kMaxSteps))) {
+    // Whole numbers as such while they are exact in a double (2^53).
+    const std::string count = steps < 9e15 ? std::to_string(static_cast<long long>(steps)) : numberText(steps);
+    return Error{what + ": " + numberText(duration) + " s at integrator.dt " + numberText(dt) +
+                 " s and " + std::to_string(substeps) + " substeps needs " + count + " steps, more than the " +
+                 std::to_string(kMaxSteps) + " allowed; shorten the duration or take larger steps"};
+  }
+  return Status::success();
+}
+
+std::string meshFilePath(const Scene& s) {
+  if (s.meshType != "obj") return "";
+  std::string path = s.objFile;
+  if (!path.empty() && path[0] != '/' && !s.sourcePath.empty()) {
+    const auto slash = s.sourcePath.find_last_of('/');
+    if (slash != std::string::npos) path = s.sourcePath.substr(0, slash + 1) + path;
+  }
+  return path;
 }
 
 Expected<std::vector<Index>> resolveSelection(const VertexSelection& sel, const Scene& scene,
@@ -370,14 +513,7 @@ namespace {
 
 Expected<Mesh> buildMesh(const Scene& s) {
   if (s.meshType == "grid") return makeGrid(s.grid);
-  if (s.meshType == "obj") {
-    std::string path = s.objFile;
-    if (!path.empty() && path[0] != '/' && !s.sourcePath.empty()) {
-      const auto slash = s.sourcePath.find_last_of('/');
-      if (slash != std::string::npos) path = s.sourcePath.substr(0, slash + 1) + path;
-    }
-    return loadObj(path, s.dim);
-  }
+  if (s.meshType == "obj") return loadObj(meshFilePath(s), s.dim);
   Mesh mesh = s.explicitMesh;
   mesh.dim = s.dim;
   return mesh;
@@ -407,12 +543,142 @@ std::unique_ptr<Integrator> makeIntegrator(const Scene& s) {
 
 }  // namespace
 
+namespace {
+
+// The contact distance dHat is a gap the cloth keeps from obstacles and from itself: one larger
+// than the mesh's shortest edge keeps the cloth floating coarser than it is resolved, and with
+// self-collision pushes apart vertices that are neighbours at rest.
+Status checkContactDistance(const Mesh& mesh, double distance) {
+  double shortest = std::numeric_limits<double>::infinity();
+  std::array<Index, 2> which{};
+  const int d = mesh.dim;
+  for (const auto& e : uniqueEdges(mesh.triangles)) {
+    const double length =
+        (mesh.restPositions.segment(d * e[1], d) - mesh.restPositions.segment(d * e[0], d)).norm();
+    if (length < shortest) {
+      shortest = length;
+      which = e;
+    }
+  }
+  if (distance >= shortest) {
+    return Error{"contact.distance (" + numberText(distance) + " m) must be smaller than the "
+                 "shortest rest edge of the mesh (" + numberText(shortest) + " m, between vertices " +
+                 std::to_string(which[0]) + " and " + std::to_string(which[1]) +
+                 "); use a smaller distance or a coarser mesh"};
+  }
+  return Status::success();
+}
+
+// An OBJ or explicit mesh gives its own coordinates: within the same bounds as a grid's.
+Status checkMeshExtent(const Mesh& mesh) {
+  const int d = mesh.dim;
+  for (Index i = 0; i < mesh.numVertices(); ++i) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    p.head(d) = mesh.restPositions.segment(d * i, d);
+    FEM_CLOTH_CHECK(boundedPosition(p, "vertex " + std::to_string(i)));
+  }
+  const double size = restBoundingBoxDiagonal(mesh);
+  if (!(size >= kMinClothSize)) {
+    return Error{"the cloth is " + numberText(size) + " m across (its rest bounding box diagonal), "
+                 "less than the " + numberText(kMinClothSize) + " m allowed"};
+  }
+  return Status::success();
+}
+
+
+// Every free vertex starts outside the obstacles, no closer than dHat/2 (those that follow a tf
+// frame are placed only when the node runs).
+Status checkObstacleGaps(const Scene& scene, const ContactModel& contact, const VectorX& x,
+                         const std::vector<Index>& pinned) {
+  const Index n = static_cast<Index>(x.size() / 3);
+  std::vector<char> isPinned(static_cast<std::size_t>(n), 0);
+  for (Index vert : pinned) isPinned[static_cast<std::size_t>(vert)] = 1;
+  for (std::size_t k = 0; k < scene.obstacles.size(); ++k) {
+    if (!contact.obstacle(k).frame.empty()) continue;
+    const std::string name = "obstacles[" + std::to_string(k) + "] ('" + contact.obstacle(k).name + "')";
+    for (Index vert = 0; vert < n; ++vert) {
+      if (isPinned[static_cast<std::size_t>(vert)]) continue;
+      const double dist = signedDistance(contact.obstacle(k).shape,
+                                         contact.shapePose(k).inverse() * Eigen::Vector3d(x.segment<3>(3 * vert)))
+                              .distance;
+      if (!(dist > 0.0)) {
+        return Error{name + ": vertex " + std::to_string(vert) + " starts inside it or on its surface (distance " +
+                     numberText(dist) + " m); move the obstacle or the cloth"};
+      }
+      // The automatic barrier stiffness holds a cloth resting under its weight at about dHat/2
+      // (contact_model.h), so a cloth may start resting there; much closer, the barrier (or the
+      // explicit steppers' projection to dHat) throws the vertex out in the first step.
+      if (dist < 0.5 * scene.contact.distance * (1.0 - 1e-9)) {
+        return Error{"contact.distance (" + numberText(scene.contact.distance) +
+                     " m) is more than twice the gap at which vertex " + std::to_string(vert) +
+                     " starts from " + name + " (" + numberText(dist) +
+                     " m; a resting cloth keeps about half the distance); use a smaller distance "
+                     "or start the cloth farther away"};
+      }
+    }
+  }
+  return Status::success();
+}
+
+// With self-collision the cloth must start free of crossings and of contacts with itself.
+Status checkSelfContactAtStart(const Scene& scene, ContactModel& contact, const Mesh& mesh,
+                               const VectorX& x) {
+  // Parts of the cloth that share no vertex must be farther apart than dHat at rest, or the
+  // barrier would push them apart from the start.
+  const double rest = contact.minimumSelfDistance(mesh.restPositions);
+  if (rest < scene.contact.distance) {
+    return Error{"contact.distance (" + numberText(scene.contact.distance) +
+                 " m) must be below the smallest rest distance between parts of the cloth that "
+                 "share no vertex (" + numberText(rest) + " m) for self_collision; use a smaller distance "
+                 "or a coarser mesh"};
+  }
+  auto crossing = [&mesh](const std::optional<SelfIntersection>& hit) {
+    return "edge (" + std::to_string(hit->edge[0]) + ", " + std::to_string(hit->edge[1]) +
+           ") of triangle " + std::to_string(hit->edgeTriangle) + " passes through triangle " +
+           std::to_string(hit->triangle) + " (" + std::to_string(mesh.triangles[hit->triangle][0]) + ", " +
+           std::to_string(mesh.triangles[hit->triangle][1]) + ", " +
+           std::to_string(mesh.triangles[hit->triangle][2]) + ")";
+  };
+  if (auto hit = findSelfIntersection(mesh, mesh.restPositions)) {
+    return Error{"mesh: the rest mesh intersects itself: " + crossing(hit) +
+                 "; self_collision needs a cloth that does not pass through itself"};
+  }
+  if (x != mesh.restPositions) {
+    if (auto hit = findSelfIntersection(mesh, x)) {
+      return Error{"initial: the initial positions intersect themselves: " + crossing(hit) +
+                   "; self_collision needs a cloth that does not pass through itself"};
+    }
+  }
+  if (!(contact.minimumSelfDistance(x) > 0.0)) {
+    return Error{"initial: the cloth starts intersecting itself (with self_collision on)"};
+  }
+  return Status::success();
+}
+
+Expected<std::unique_ptr<ContactModel>> makeContact(const Scene& scene, const Model& model,
+                                                    const VectorX& x, const std::vector<Index>& pinned) {
+  FEM_CLOTH_CHECK(checkContactDistance(model.mesh(), scene.contact.distance));
+  std::vector<Obstacle> obstacles;
+  for (std::size_t i = 0; i < scene.obstacles.size(); ++i) {
+    obstacles.push_back(*makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]"));
+  }
+  auto contact = std::make_unique<ContactModel>(model, std::move(obstacles), scene.contact,
+                                                scene.gravity.norm());
+  FEM_CLOTH_CHECK(checkObstacleGaps(scene, *contact, x, pinned));
+  if (scene.contact.selfCollision) FEM_CLOTH_CHECK(checkSelfContactAtStart(scene, *contact, model.mesh(), x));
+  return contact;
+}
+}  // namespace
+
 Expected<Simulation> buildSimulation(const Scene& scene) {
   if (Status s = validateScene(scene); !s) return Error{s.error()};
   Expected<Mesh> built = buildMesh(scene);
-  if (!built) return Error{"mesh: " + built.error()};
+  if (!built) return Error{(scene.meshType == "obj" ? "mesh.file: " : "mesh: ") + built.error()};
   const MeshValidation check = validateMesh(*built, scene.minTriangleQuality);
   if (!check.ok()) return Error{"mesh: " + check.errorSummary()};
+  if (scene.meshType != "grid") {
+    if (Status st = checkMeshExtent(*built); !st) return Error{"mesh: " + st.error()};
+  }
   auto mesh = std::make_shared<const Mesh>(std::move(built).value());
   Expected<RestState> restState = computeRestState(*mesh);
   if (!restState) return Error{"mesh: " + restState.error()};
@@ -430,8 +696,16 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   // Zero stiffness declares no bending term at all, so planar meshes (which cannot bend) build;
   // a planar mesh with a non-zero stiffness is an error naming the key.
   if (scene.bendingStiffness > 0.0) {
-    Expected<std::unique_ptr<EnergyTerm>> bending =
-        makeBendingTerm(*mesh, *rest, scene.bendingModel, scene.bendingStiffness);
+    BendingSpec spec;
+    spec.model = scene.bendingModel;
+    spec.stiffness = scene.bendingStiffness;
+    spec.poissonRatio = scene.bendingPoissonRatio;
+    if (spec.model == "midedge") {
+      Expected<std::vector<char>> held = heldVertices(scene, mesh->numVertices());
+      if (!held) return Error{held.error()};
+      spec.held = std::move(held).value();
+    }
+    Expected<std::unique_ptr<EnergyTerm>> bending = makeBendingTerm(*mesh, *rest, spec);
     if (!bending) return Error{"bending.stiffness: " + bending.error()};
     sim.model->addTerm(std::move(bending).value(), TermKind::Bending);
   }
@@ -536,48 +810,10 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   }
   if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
   if (sceneHasContact(scene)) {
-    std::vector<Obstacle> obstacles;
-    for (std::size_t i = 0; i < scene.obstacles.size(); ++i) {
-      obstacles.push_back(*makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]"));
-    }
-    auto contact = std::make_unique<ContactModel>(*sim.model, std::move(obstacles), scene.contact,
-                                                  scene.gravity.norm());
-    // Every free vertex starts outside the obstacles (those that follow a tf frame are placed
-    // only when the node runs).
-    std::vector<char> pinnedDofs(x.size(), 0);
-    for (Index vert : simulator.pinnedVertices()) {
-      for (int k = 0; k < d; ++k) pinnedDofs[d * vert + k] = 1;
-    }
-    for (std::size_t k = 0; k < scene.obstacles.size(); ++k) {
-      if (!contact->obstacle(k).frame.empty()) continue;
-      for (Index vert = 0; vert < n; ++vert) {
-        if (pinnedDofs[d * vert]) continue;
-        const double dist = signedDistance(contact->obstacle(k).shape,
-                                           contact->shapePose(k).inverse() * Eigen::Vector3d(x.segment<3>(3 * vert)))
-                                .distance;
-        if (!(dist > 0.0)) {
-          return Error{"obstacles[" + std::to_string(k) + "] ('" + contact->obstacle(k).name +
-                       "'): vertex " + std::to_string(vert) + " starts inside it or on its surface (distance " +
-                       numberText(dist) + " m); move the obstacle or the cloth"};
-        }
-      }
-    }
-    if (scene.contact.selfCollision) {
-      // Parts of the cloth that share no vertex must be farther apart than dHat at rest, or the
-      // barrier would push them apart from the start.
-      const double rest = contact->minimumSelfDistance(mesh->restPositions);
-      if (rest < scene.contact.distance) {
-        return Error{"contact.distance (" + numberText(scene.contact.distance) +
-                     " m) must be below the smallest rest distance between parts of the cloth that "
-                     "share no vertex (" + numberText(rest) + " m) for self_collision; use a smaller distance "
-                     "or a coarser mesh"};
-      }
-      const double now = contact->minimumSelfDistance(x);
-      if (!(now > 0.0)) {
-        return Error{"initial: the cloth starts intersecting itself (with self_collision on)"};
-      }
-    }
-    simulator.setContact(std::move(contact));
+    Expected<std::unique_ptr<ContactModel>> contact =
+        makeContact(scene, *sim.model, x, simulator.pinnedVertices());
+    if (!contact) return Error{contact.error()};
+    simulator.setContact(std::move(contact).value());
   }
   const Model::Energies e0 = sim.model->energies(x);
   if (!std::isfinite(e0.total())) {

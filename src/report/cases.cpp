@@ -6,7 +6,6 @@
 
 #include "fem_cloth/core/mesh.h"
 #include "fem_cloth/io/scene_yaml.h"
-#include "fem_cloth/ros/bag_io.h"
 
 namespace fem_cloth::report {
 
@@ -293,7 +292,7 @@ YAML::Node smoothSheet() {
 }  // namespace
 
 Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir,
-                                                    const std::string& bag, bool small) {
+                                                    std::shared_ptr<const Recording> recording, bool small) {
   std::vector<AccuracyScene> scenes;
   const int n = small ? 9 : 17;
   const std::vector<std::string> size = {"mesh.rows=" + std::to_string(n),
@@ -343,19 +342,16 @@ Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir
       !s) {
     return Error{s.error()};
   }
-  if (!bag.empty()) {
-    Expected<RecordedRun> run = readRun(bag);
-    if (!run) return Error{run.error()};
-    if (run->sceneYaml.empty()) return Error{"bag '" + bag + "' holds no scene"};
+  if (recording != nullptr) {
+    const std::string& bag = recording->path();
     AccuracyScene s;
     s.name = "grasp";
     s.description = "a recorded grasp-and-lift (" + bag.substr(bag.find_last_of('/') + 1) +
                     "): commands and gripper frames re-applied";
-    try {
-      s.document = YAML::Load(run->sceneYaml);
-    } catch (const YAML::Exception& e) {
-      return Error{"the scene stored in bag '" + bag + "' is not valid YAML: " + e.msg};
-    }
+    s.recording = recording;
+    Expected<YAML::Node> doc = recording->scene();
+    if (!doc) return Error{doc.error()};
+    s.document = *doc;
     s.document["name"] = "grasp";
     s.commandsBag = bag;
     // The commands are stamped on the recording's steps (0.01 s): every tested dt divides it.
@@ -363,10 +359,7 @@ Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir
     s.sampleInterval = 0.04;
     s.dts = {0.04, 0.02, 0.01, 0.005, 0.0025};
     s.referenceDt = s.dts.back() / 8.0;
-    double recorded = 0.0;
-    for (const RecordedState& st : run->states) {
-      recorded = std::max(recorded, (st.stamp - run->states.front().stamp).toSec());
-    }
+    const double recorded = recording->recordedDuration();
     s.duration = std::floor(recorded / s.sampleInterval + 1e-6) * s.sampleInterval;
     scenes.push_back(std::move(s));
   }

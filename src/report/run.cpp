@@ -12,7 +12,6 @@
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/io/scene_yaml.h"
-#include "fem_cloth/ros/simulation_driver.h"
 
 namespace fem_cloth::report {
 
@@ -108,37 +107,31 @@ RunResult runScene(const RunRequest& request) {
   const EdgeStretchMeter stretchMeter(*mesh);
 
   // The stepping: the scene's own script, or the node's driver fed with a recorded run.
-  std::unique_ptr<SimulationDriver> driver;
+  std::unique_ptr<DrivenSimulation> driver;
   std::optional<Simulation> plain;
   if (request.commands) {
-    const RecordedRun& run = *request.commands;
-    DriverSettings settings;
-    settings.epoch = runEpoch(run, request.recordedDt > 0.0 ? request.recordedDt : dt).value_or(run.begin);
-    if (!run.frame.empty()) settings.frame = run.frame;
-    driver = std::make_unique<SimulationDriver>(std::move(built).value(), *scene, settings, run.tf.get());
-    // A command the driver rejects was rejected live as well (the recording holds the applied
-    // stream): skipping it is what the node did.
-    for (const PinCommand& c : run.pins) static_cast<void>(driver->submit(c));
-    for (const ForceCommand& c : run.forces) static_cast<void>(driver->submit(c));
+    driver = request.commands->drive(std::move(built).value(), request.scene,
+                                     request.recordedDt > 0.0 ? request.recordedDt : dt);
   } else {
     plain.emplace(std::move(built).value());
   }
-  Simulator& sim = driver ? driver->simulator() : *plain->simulator;
-  out.integrator = sim.integrator().name();
-  out.dim = sim.dim();
+  // Looked up at each use: a live change among the recorded commands replaces the simulator.
+  auto simulator = [&]() -> Simulator& { return driver ? driver->simulator() : *plain->simulator; };
+  out.integrator = simulator().integrator().name();
+  out.dim = simulator().dim();
   out.clothSize = restBoundingBoxDiagonal(*mesh);
-  out.weightScale = sim.model().totalMass() * accelerationScale(scene->gravity.norm()) * out.clothSize;
+  out.weightScale = simulator().model().totalMass() * accelerationScale(scene->gravity.norm()) * out.clothSize;
 
   double heldEnergy = 0.0, work = 0.0, maxBalance = -std::numeric_limits<double>::infinity();
   // Measures the state after a step (or the initial one); false if anything is non-finite.
   auto observe = [&](std::uint64_t k, bool sample) {
-    const State& s = sim.state();
+    const State& s = simulator().state();
     if (!s.x.allFinite() || !s.v.allFinite()) {
       out.outcome = RunResult::Outcome::NonFinite;
       out.error = "non-finite state after step " + std::to_string(k);
       return false;
     }
-    const EnergyReport e = sim.energies();
+    const EnergyReport e = simulator().energies();
     if (!std::isfinite(e.total) || !std::isfinite(e.balanceError)) {
       out.outcome = RunResult::Outcome::NonFinite;
       out.error = "non-finite energy after step " + std::to_string(k) + " (total " + numberText(e.total) +
@@ -151,7 +144,7 @@ RunResult runScene(const RunRequest& request) {
     out.balanceMaxAbs = std::max(out.balanceMaxAbs, std::abs(e.balanceError));
     out.balanceEnd = e.balanceError;
     out.maxStretch = std::max(out.maxStretch, stretchMeter.measure(s.x).max);
-    out.minJEnd = minAreaRatio(*mesh, sim.model().rest(), s.x);
+    out.minJEnd = minAreaRatio(*mesh, simulator().model().rest(), s.x);
     out.minJ = std::min(out.minJ, out.minJEnd);
     if (sample && (k % *every == 0 || k == *total)) {
       out.samples.push_back(s.x);
@@ -167,11 +160,11 @@ RunResult runScene(const RunRequest& request) {
     StepReport r;
     if (driver) {
       r = driver->step();
-    } else if (Status s = plain->script.applyDue(sim); !s) {
+    } else if (Status s = plain->script.applyDue(simulator()); !s) {
       r.ok = false;
       r.error = s.error();
     } else {
-      r = sim.step();
+      r = simulator().step();
     }
     out.wall += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     out.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
@@ -189,13 +182,13 @@ RunResult runScene(const RunRequest& request) {
     finite = observe(k, true);
     if (finite && out.wall > request.wallBudget && k < *total) {
       out.outcome = RunResult::Outcome::OverBudget;
-      out.error = "stopped after " + numberText(out.wall) + " s of wall time at t = " + numberText(sim.time()) +
+      out.error = "stopped after " + numberText(out.wall) + " s of wall time at t = " + numberText(simulator().time()) +
                   " s (budget " + numberText(request.wallBudget) + " s)";
       break;
     }
   }
-  out.simulated = sim.time();
-  out.finalHash = stateHash(sim.state().x, sim.state().v);
+  out.simulated = simulator().time();
+  out.finalHash = stateHash(simulator().state().x, simulator().state().v);
   const double scale = std::max({out.weightScale, heldEnergy, work, 1e-12});
   out.energyGrowth = std::isfinite(maxBalance) ? maxBalance / scale : 0.0;
   return out;

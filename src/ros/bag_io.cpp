@@ -1,16 +1,21 @@
 #include "fem_cloth/ros/bag_io.h"
 
+#include <console_bridge/console.h>
 #include <rosbag/exceptions.h>
 #include <rosbag/view.h>
 #include <std_msgs/String.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <array>
 #include <map>
 
 #include "fem_cloth/ClothState.h"
+#include "fem_cloth/io/output_file.h"
+#include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
 
@@ -18,6 +23,7 @@ RunTopics::RunTopics(const std::string& node) {
   std::string ns = node.empty() ? "/fem_cloth_node" : node;
   if (ns[0] != '/') ns = "/" + ns;
   if (ns.back() == '/') ns.pop_back();
+  this->ns = ns;
   scene = ns + "/scene";
   mesh = ns + "/mesh";
   state = ns + "/state";
@@ -31,6 +37,9 @@ RunTopics::RunTopics(const std::string& node) {
   appliedForce = ns + "/applied_force";
 }
 
+std::string RunTopics::sent(CommandTopic topic) const { return ns + "/" + topicName(topic); }
+std::string RunTopics::applied(CommandTopic topic) const { return ns + "/applied_" + topicName(topic); }
+
 namespace {
 
 template <class M>
@@ -38,20 +47,193 @@ Status expectType(const rosbag::ConnectionInfo& c) {
   const std::string type = ros::message_traits::DataType<M>::value();
   const std::string md5 = ros::message_traits::MD5Sum<M>::value();
   if (c.datatype != type) {
-    return Error{"topic " + c.topic + " holds " + c.datatype + " messages, expected " + type};
+    return Error{"topic " + c.topic + " holds " + printableText(c.datatype) + " messages, expected " + type};
   }
   if (c.md5sum != md5) {
     return Error{"topic " + c.topic + " holds " + type +
-                 " messages of another definition (md5 " + c.md5sum + ", this build " + md5 +
+                 " messages of another definition (md5 " + printableText(c.md5sum) + ", this build " + md5 +
                  "): recorded with an incompatible version of fem_cloth"};
   }
   return Status::success();
 }
 
+// Every topic we read has the type we read it as, checked before reading any of them.
+Status checkTypes(rosbag::View& view, const RunTopics& topics) {
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+    Status s;
+    if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
+    if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
+    if (c->topic == topics.state) s = expectType<ClothState>(*c);
+    if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
+    forEachCommandType([&](auto type) {
+      using C = typename decltype(type)::type;
+      const CommandTopic topic = topicOf<C>();
+      if (c->topic == topics.sent(topic) || c->topic == topics.applied(topic)) s = expectType<C>(*c);
+    });
+    if (!s) return s;
+  }
+  return Status::success();
+}
+
+// A command message, sent or applied, into its topic's list (a sent one with a zero stamp is
+// stamped with the time it was recorded: when the node took it); the command added, if any.
+const Command* readCommand(const rosbag::MessageInstance& m, const RunTopics& topics,
+                           std::array<std::vector<Command>, kCommandTopics>* sent,
+                           std::array<std::vector<Command>, kCommandTopics>* applied) {
+  const Command* added = nullptr;
+  forEachCommandType([&](auto type) {
+    using C = typename decltype(type)::type;
+    const CommandTopic topic = topicOf<C>();
+    const std::size_t k = static_cast<std::size_t>(topic);
+    const bool isSent = m.getTopic() == topics.sent(topic);
+    if (!isSent && m.getTopic() != topics.applied(topic)) return;
+    auto msg = m.instantiate<C>();
+    if (!msg) return;
+    C c = *msg;
+    if (isSent && c.header.stamp.isZero()) c.header.stamp = m.getTime();
+    std::vector<Command>& list = (isSent ? *sent : *applied)[k];
+    list.push_back(std::move(c));
+    added = &list.back();
+  });
+  return added;
+}
+
+Status checkStamp(const ros::Time& stamp, const ros::Time& begin, const std::string& what) {
+  if (stamp.isZero()) return Status::success();  // "now" for commands, static for tf
+  const double distance = std::abs(secondsBetween(stamp, begin));
+  if (!(distance <= kMaxRecordingSpan)) {
+    return Error{what + " has the stamp " + numberText(stamp.toSec()) + " s, " + numberText(distance) +
+                 " s from the start of the recording (" + numberText(begin.toSec()) +
+                 " s): more than the " + numberText(kMaxRecordingSpan) + " s a recording can span"};
+  }
+  return Status::success();
+}
+
+// What one message of the bag adds to the run; the message is named in errors.
+class RunReader {
+ public:
+  RunReader(RecordedRun& run, const RunTopics& topics) : run_(run), topics_(topics) {}
+
+  Status add(const rosbag::MessageInstance& m) {
+    const std::string& topic = m.getTopic();
+    const std::string what = "message " + std::to_string(++count_) + " (" + printableText(topic) + ", bag time " +
+                             numberText(m.getTime().toSec()) + " s)";
+    FEM_CLOTH_CHECK(checkStamp(m.getTime(), run_.begin, what));
+    if (topic == topics_.scene) {
+      if (auto msg = m.instantiate<std_msgs::String>()) run_.sceneYaml = msg->data;
+    } else if (topic == topics_.mesh) {
+      if (auto msg = m.instantiate<shape_msgs::Mesh>(); msg && !run_.mesh) run_.mesh = *msg;
+    } else if (topic == topics_.state) {
+      if (auto msg = m.instantiate<ClothState>()) return addState(*msg, m.getTime(), what);
+    } else if (const Command* c = readCommand(m, topics_, &sent_, &applied_)) {
+      // The node refuses a command stamped beyond what a ROS duration can hold (and records
+      // it all the same, as sent): the replay leaves it out as the node did, with a warning,
+      // rather than refusing the whole recording for it.
+      if (Status s = checkStamp(headerOf(*c).stamp, run_.begin, what); !s) {
+        dropLast(c);
+        run_.warnings.push_back(s.error() + "; left out, as the node refuses such a command");
+      }
+      return Status::success();
+    } else if (topic == "/tf" || topic == "/tf_static") {
+      if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
+        for (const auto& t : msg->transforms) {
+          const std::string frame = "frame '" + printableText(t.child_frame_id) + "'";
+          FEM_CLOTH_CHECK(checkStamp(t.header.stamp, run_.begin, what + ", " + frame));
+          // tf refuses what a live listener would refuse too (a NaN, a rotation that is not a
+          // unit quaternion, an empty or self-referencing frame): the replay goes on without it.
+          if (!run_.tf->setTransform(t, "bag", topic == "/tf_static")) {
+            run_.warnings.push_back(what + ": tf refused the transform of " + frame +
+                                    " (not finite, not a rotation, or no frames named)");
+          }
+        }
+      }
+    }
+    return Status::success();
+  }
+
+  /// The commands to replay: the applied ones when the bag has them (exact), else those sent.
+  void finish() {
+    bool anyApplied = false, anySent = false;
+    for (std::size_t k = 0; k < kCommandTopics; ++k) {
+      anyApplied = anyApplied || !applied_[k].empty();
+      anySent = anySent || !sent_[k].empty();
+    }
+    run_.exactCommands = anyApplied || !anySent;
+    for (std::vector<Command>& topic : run_.exactCommands ? applied_ : sent_) {
+      for (Command& c : topic) run_.commands.push_back(std::move(c));
+    }
+  }
+
+ private:
+  // Removes the command readCommand just added (the last of its list).
+  void dropLast(const Command* c) {
+    for (auto* lists : {&sent_, &applied_}) {
+      for (std::vector<Command>& list : *lists) {
+        if (!list.empty() && &list.back() == c) {
+          list.pop_back();
+          return;
+        }
+      }
+    }
+  }
+
+  Status addState(const ClothState& msg, const ros::Time& time, const std::string& what) {
+    FEM_CLOTH_CHECK(checkStamp(msg.header.stamp, run_.begin, what));
+    // A node reset (~reset) starts again from step 0: the commands before and after it cannot
+    // be told apart by their stamps, so no replay can reproduce the recording.
+    if (!run_.states.empty() && msg.step < run_.states.back().step) {
+      return Error{"it spans a reset of the node (~reset): the state's step goes back from " +
+                   std::to_string(run_.states.back().step) + " to " + std::to_string(msg.step) +
+                   " at bag time " + numberText(time.toSec()) +
+                   " s; replay the part before or after it (rosbag filter ... \"t.to_sec() < " +
+                   numberText(time.toSec()) + "\", then --scene for the part after)"};
+    }
+    if (run_.frame.empty()) run_.frame = msg.header.frame_id;
+    run_.states.push_back({msg.step, msg.header.stamp, msg.state_hash});
+    return Status::success();
+  }
+
+  RecordedRun& run_;
+  const RunTopics& topics_;
+  std::size_t count_ = 0;
+  std::array<std::vector<Command>, kCommandTopics> sent_, applied_;
+};
+
+// rosbag and tf2 also print what they find wrong (a damaged record header, a refused transform)
+// through console_bridge, in several lines of their own; here it comes back as one error or
+// warning, so the console is quiet while a bag is read.
+class QuietConsole {
+ public:
+  QuietConsole() : level_(console_bridge::getLogLevel()) {
+    console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
+  }
+  ~QuietConsole() { console_bridge::setLogLevel(level_); }
+
+ private:
+  console_bridge::LogLevel level_;
+};
+
 }  // namespace
 
+Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node) {
+  if (run.sceneYaml.empty()) {
+    return Error{"bag '" + run.path + "' holds no scene (" + RunTopics(node).scene +
+                 "): record with launch/record.launch, or give the scene"};
+  }
+  try {
+    return YAML::Load(run.sceneYaml);
+  } catch (const YAML::Exception& e) {
+    return Error{"the scene stored in bag '" + run.path + "' is not valid YAML: " + e.msg};
+  }
+}
+
 Expected<RecordedRun> readRun(const std::string& path, const std::string& node) {
-  if (!std::filesystem::exists(path)) return Error{"no bag at '" + path + "'"};
+  const QuietConsole quiet;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return Error{"no bag at '" + path + "'"};
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return Error{"'" + path + "' is not a bag: not a regular file"};
+  }
   const RunTopics topics(node);
   RecordedRun run;
   run.path = path;
@@ -65,64 +247,28 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     // Reading past the end of the file: the index the header points to is missing.
     return Error{"bag '" + path + "' is truncated or damaged (" + e.what() +
                  "): 'rosbag reindex' may recover what it holds"};
-  } catch (const rosbag::BagException& e) {
+  } catch (const std::exception& e) {
+    // rosbag::BagException, and whatever a damaged header makes rosbag throw (bad_alloc on a
+    // garbled length).
     return Error{"cannot read bag '" + path + "': " + e.what()};
   }
   try {
     rosbag::View view(bag);
+    if (view.size() == 0) return Error{"bag '" + path + "' holds no messages"};
     run.begin = view.getBeginTime();
     run.end = view.getEndTime();
-    // Check the types of every topic we read before reading any of them.
-    for (const rosbag::ConnectionInfo* c : view.getConnections()) {
-      Status s;
-      if (c->topic == topics.scene) s = expectType<std_msgs::String>(*c);
-      if (c->topic == topics.mesh) s = expectType<shape_msgs::Mesh>(*c);
-      if (c->topic == topics.state) s = expectType<ClothState>(*c);
-      if (c->topic == topics.pin || c->topic == topics.appliedPin) s = expectType<PinCommand>(*c);
-      if (c->topic == topics.force || c->topic == topics.appliedForce) s = expectType<ForceCommand>(*c);
-      if (c->topic == "/tf" || c->topic == "/tf_static") s = expectType<tf2_msgs::TFMessage>(*c);
-      if (!s) return Error{"bag '" + path + "': " + s.error()};
-    }
-    const double span = std::max((run.end - run.begin).toSec(), 0.0);
+    if (Status s = checkTypes(view, topics); !s) return Error{"bag '" + path + "': " + s.error()};
+    // tf keeps transforms this long (s): the whole recording.
+    const double span = std::min(std::max(secondsBetween(run.end, run.begin), 0.0), kMaxRecordingSpan);
     run.tf = std::make_shared<tf2::BufferCore>(ros::Duration(span + 60.0));
-    std::vector<PinCommand> sentPins, appliedPins;
-    std::vector<ForceCommand> sentForces, appliedForces;
+    RunReader reader(run, topics);
     for (const rosbag::MessageInstance& m : view) {
-      const std::string& topic = m.getTopic();
-      if (topic == topics.scene) {
-        if (auto msg = m.instantiate<std_msgs::String>()) run.sceneYaml = msg->data;
-      } else if (topic == topics.mesh) {
-        if (auto msg = m.instantiate<shape_msgs::Mesh>(); msg && !run.mesh) run.mesh = *msg;
-      } else if (topic == topics.state) {
-        if (auto msg = m.instantiate<ClothState>()) {
-          if (run.frame.empty()) run.frame = msg->header.frame_id;
-          run.states.push_back({msg->step, msg->header.stamp, msg->state_hash});
-        }
-      } else if (topic == topics.appliedPin) {
-        if (auto msg = m.instantiate<PinCommand>()) appliedPins.push_back(*msg);
-      } else if (topic == topics.appliedForce) {
-        if (auto msg = m.instantiate<ForceCommand>()) appliedForces.push_back(*msg);
-      } else if (topic == topics.pin) {
-        if (auto msg = m.instantiate<PinCommand>()) {
-          sentPins.push_back(*msg);
-          if (sentPins.back().header.stamp.isZero()) sentPins.back().header.stamp = m.getTime();
-        }
-      } else if (topic == topics.force) {
-        if (auto msg = m.instantiate<ForceCommand>()) {
-          sentForces.push_back(*msg);
-          if (sentForces.back().header.stamp.isZero()) sentForces.back().header.stamp = m.getTime();
-        }
-      } else if (topic == "/tf" || topic == "/tf_static") {
-        if (auto msg = m.instantiate<tf2_msgs::TFMessage>()) {
-          for (const auto& t : msg->transforms) run.tf->setTransform(t, "bag", topic == "/tf_static");
-        }
-      }
+      if (Status s = reader.add(m); !s) return Error{"bag '" + path + "': " + s.error()};
     }
-    run.exactCommands = !appliedPins.empty() || !appliedForces.empty() ||
-                        (sentPins.empty() && sentForces.empty());
-    run.pins = run.exactCommands ? std::move(appliedPins) : std::move(sentPins);
-    run.forces = run.exactCommands ? std::move(appliedForces) : std::move(sentForces);
-  } catch (const rosbag::BagException& e) {
+    reader.finish();
+  } catch (const std::exception& e) {
+    // rosbag's errors, a message that does not deserialise (ros::serialization), a garbled
+    // length (bad_alloc), a stamp tf's time arithmetic cannot take.
     return Error{"bag '" + path + "' is truncated or damaged: " + e.what()};
   }
   return run;
@@ -131,7 +277,11 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
 std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt) {
   if (run.states.empty()) return std::nullopt;
   const RecordedState& s = run.states.front();
-  return s.stamp - ros::Duration(static_cast<double>(s.step) * dt);
+  // Only an origin that ros::Time can hold (a state whose step does not fit its stamp and dt
+  // has none); Time - Duration keeps the exact nanoseconds of the stamp where it can.
+  const double back = static_cast<double>(s.step) * dt;
+  if (!(back >= 0.0 && back <= s.stamp.toSec() && back < kMaxRecordingSpan)) return std::nullopt;
+  return s.stamp - ros::Duration(back);
 }
 
 Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {
@@ -167,9 +317,12 @@ Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {
 }
 
 Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
-  std::unique_ptr<RunWriter> writer(new RunWriter(path));
+  if (path.empty()) return std::unique_ptr<RunWriter>(new RunWriter(path, ""));
+  Expected<std::string> temporary = createTemporaryNextTo(path);
+  if (!temporary) return Error{temporary.error()};
+  std::unique_ptr<RunWriter> writer(new RunWriter(path, *temporary));
   try {
-    writer->bag_.open(path + ".partial", rosbag::bagmode::Write);
+    writer->bag_.open(writer->temporary_, rosbag::bagmode::Write);
   } catch (const rosbag::BagException& e) {
     return Error{"cannot write bag '" + path + "': " + e.what()};
   }
@@ -177,24 +330,23 @@ Expected<std::unique_ptr<RunWriter>> RunWriter::open(const std::string& path) {
 }
 
 RunWriter::~RunWriter() {
-  if (!closed_) {
+  if (!closed_ && !path_.empty()) {
     try {
       bag_.close();
     } catch (const rosbag::BagException&) {
     }
-    std::remove((path_ + ".partial").c_str());
+    std::remove(temporary_.c_str());
   }
 }
 
 Status RunWriter::close() {
+  if (path_.empty()) return Status::success();
   try {
     bag_.close();
   } catch (const rosbag::BagException& e) {
     return Error{"cannot finish bag '" + path_ + "': " + e.what()};
   }
-  std::error_code ec;
-  std::filesystem::rename(path_ + ".partial", path_, ec);
-  if (ec) return Error{"cannot rename '" + path_ + ".partial' to '" + path_ + "': " + ec.message()};
+  if (Status s = moveIntoPlace(temporary_, path_); !s) return s;
   closed_ = true;
   return Status::success();
 }

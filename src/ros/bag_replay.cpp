@@ -6,10 +6,13 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/simulation_driver.h"
+#include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
 
@@ -17,20 +20,11 @@ namespace {
 
 Expected<YAML::Node> sceneDocument(const RecordedRun* run, const BagRunOptions& options) {
   if (!options.sceneFile.empty()) return loadSceneDocument(options.sceneFile, options.overrides);
-  if (run == nullptr || run->sceneYaml.empty()) {
-    return Error{run == nullptr
-                     ? "no scene: give --scene"
-                     : "bag '" + run->path + "' holds no scene (" + RunTopics(options.node).scene +
-                           "); record with launch/record.launch or give --scene"};
-  }
-  YAML::Node doc;
-  try {
-    doc = YAML::Load(run->sceneYaml);
-  } catch (const YAML::Exception& e) {
-    return Error{"the scene stored in bag '" + run->path + "' is not valid YAML: " + e.msg};
-  }
+  if (run == nullptr) return Error{"no scene: give --scene"};
+  Expected<YAML::Node> doc = storedScene(*run, options.node);
+  if (!doc) return Error{doc.error() + " (--scene)"};
   for (const std::string& o : options.overrides) {
-    if (Status s = applySceneOverride(doc, o); !s) return Error{s.error()};
+    if (Status s = applySceneOverride(*doc, o); !s) return Error{s.error()};
   }
   return doc;
 }
@@ -62,7 +56,121 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_;
 };
 
+// The step of the recorded run, which dates its states: that of the scene stored in the bag
+// (a replay with --scene or --set may step differently), else the replay's.
+double recordedDt(const RecordedRun& run, double replayDt) {
+  if (run.sceneYaml.empty()) return replayDt;
+  try {
+    const Expected<Scene> recorded = parseScene(YAML::Load(run.sceneYaml));
+    if (recorded) return recorded->dt;
+  } catch (const YAML::Exception&) {
+  }
+  return replayDt;
+}
+
+// The ROS time of simulation time 0: from the recorded states, else the start of the bag (or 0
+// without one). Every stamp the replay compares with it lies within kMaxRecordingSpan of the
+// start of the recording (readRun), so keeping it there too keeps their differences within what
+// ros::Duration holds.
+Expected<ros::Time> replayEpoch(const RecordedRun* run, double dt) {
+  if (run == nullptr) return ros::Time(0);
+  if (run->states.empty()) return run->begin;
+  const std::optional<ros::Time> epoch = runEpoch(*run, recordedDt(*run, dt));
+  const RecordedState& first = run->states.front();
+  if (!epoch || std::abs(secondsBetween(*epoch, run->begin)) > kMaxRecordingSpan) {
+    return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
+                 ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
+                 "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
+  }
+  return *epoch;
+}
+
+// How long the run lasts (s): --duration, else up to the last recorded state, the last command
+// + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from `epoch`, within the
+// recording's span and ros::Time.
+Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene, double lastRecorded,
+                                double lastCommand, bool anyCommand, const ros::Time& epoch,
+                                const ros::Time& reference) {
+  double duration = options.duration;
+  std::string what = "--duration";
+  if (!(duration > 0.0)) {
+    if (lastRecorded > 0.0) {
+      duration = lastRecorded;
+      what = "the last recorded state";
+    } else if (anyCommand) {
+      duration = lastCommand + 1.0;
+      what = "the last command";
+    } else {
+      duration = scene.duration;
+      what = "the scene's duration";
+    }
+  }
+  FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
+  const double end = epoch.toSec() + duration;
+  if (!(secondsBetween(epoch, reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
+    return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
+                 (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
+  }
+  return duration;
+}
+
+// The commands the step applied, topic after topic, each on its applied_ topic.
+void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& out) {
+  forEachCommandType([&](auto type) {
+    using C = typename decltype(type)::type;
+    for (const C& c : driver.takeApplied<C>()) out.write(topics.applied(topicOf<C>()), c.header.stamp, c);
+  });
+}
+
+// The SimulationDriver fed with a recorded run, as the report steps it.
+class DriverRun : public DrivenSimulation {
+ public:
+  DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
+    // A command the driver rejects was rejected live as well (the recording holds the applied
+    // stream): skipping it is what the node did.
+    for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
+  }
+  Simulator& simulator() override { return driver_.simulator(); }
+  StepReport step() override { return driver_.step(); }
+
+ private:
+  static DriverSettings settingsFor(const RecordedRun& run, double dt) {
+    DriverSettings settings;
+    settings.epoch = runEpoch(run, dt).value_or(run.begin);
+    if (!run.frame.empty()) settings.frame = run.frame;
+    return settings;
+  }
+  SimulationDriver driver_;
+};
+
+class BagRecording : public Recording {
+ public:
+  BagRecording(RecordedRun run, std::string node) : run_(std::move(run)), node_(std::move(node)) {}
+  const std::string& path() const override { return run_.path; }
+  Expected<YAML::Node> scene() const override { return storedScene(run_, node_); }
+  double recordedDuration() const override {
+    double recorded = 0.0;
+    for (const RecordedState& s : run_.states) recorded = std::max(recorded, secondsBetween(s.stamp, run_.states.front().stamp));
+    return recorded;
+  }
+  std::unique_ptr<DrivenSimulation> drive(Simulation simulation, const YAML::Node& document,
+                                          double recordedDt) const override {
+    return std::make_unique<DriverRun>(std::move(simulation), document, run_, recordedDt);
+  }
+
+ private:
+  RecordedRun run_;
+  std::string node_;
+};
+
 }  // namespace
+
+Expected<std::shared_ptr<const Recording>> readRecording(const std::string& path, const std::string& node) {
+  Expected<RecordedRun> run = readRun(path, node);
+  if (!run) return Error{run.error()};
+  return std::shared_ptr<const Recording>(std::make_shared<BagRecording>(std::move(run).value(), node));
+}
 
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options) {
@@ -77,6 +185,11 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   if (!doc) return Error{doc.error()};
   Expected<Scene> scene = parseScene(*doc, options.sceneFile);
   if (!scene) return Error{"scene: " + scene.error()};
+  FEM_CLOTH_CHECK(checkNotAnInput(outBag, {inBag, options.sceneFile, meshFilePath(*scene)}));
+  // Found now rather than when the finished bag cannot be renamed into place.
+  if (std::error_code ec; std::filesystem::is_directory(outBag, ec)) {
+    return Error{"cannot write bag '" + outBag + "': it is a directory"};
+  }
   Expected<Simulation> simulation = buildSimulation(*scene);
   if (!simulation) return Error{"scene: " + simulation.error()};
   if (run && run->mesh) {
@@ -86,16 +199,15 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   }
   const double dt = scene->dt;
   DriverSettings settings;
-  settings.epoch = ros::Time(0);
-  if (run) {
-    settings.epoch = runEpoch(*run, dt).value_or(run->begin);
-    if (!run->frame.empty()) settings.frame = run->frame;
-  }
+  Expected<ros::Time> epoch = replayEpoch(run ? &*run : nullptr, dt);
+  if (!epoch) return Error{epoch.error()};
+  settings.epoch = *epoch;
+  if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
-  SimulationDriver driver(std::move(simulation).value(), *scene, settings,
-                          run ? run->tf.get() : nullptr);
+  if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
+  SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.
@@ -103,35 +215,21 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   double lastCommand = 0.0;
   if (run) {
     report.exactCommands = run->exactCommands;
-    for (const PinCommand& c : run->pins) {
-      ++report.pinCommands;
-      lastCommand = std::max(lastCommand, (c.header.stamp - settings.epoch).toSec());
+    for (const Command& c : run->commands) {
+      ++report.commands[static_cast<std::size_t>(topicOf(c))];
+      lastCommand = std::max(lastCommand, secondsBetween(headerOf(c).stamp, settings.epoch));
       if (Status s = driver.submit(c); !s) {
         ++report.rejected;
-        report.warnings.push_back("pin command rejected (as live): " + s.error());
-      }
-    }
-    for (const ForceCommand& c : run->forces) {
-      ++report.forceCommands;
-      lastCommand = std::max(lastCommand, (c.header.stamp - settings.epoch).toSec());
-      if (Status s = driver.submit(c); !s) {
-        ++report.rejected;
-        report.warnings.push_back("force command rejected (as live): " + s.error());
+        report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
       }
     }
     for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
   }
-  double duration = options.duration;
-  if (!(duration > 0.0)) {
-    if (!recorded.empty()) {
-      duration = static_cast<double>(recorded.rbegin()->first) * dt;
-    } else if (report.pinCommands + report.forceCommands > 0) {
-      duration = lastCommand + 1.0;
-    } else {
-      duration = scene->duration;
-    }
-  }
-  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(duration / dt - 1e-9)));
+  Expected<double> duration = replayDuration(
+      options, *scene, recorded.empty() ? 0.0 : static_cast<double>(recorded.rbegin()->first) * dt,
+      lastCommand, run && !run->commands.empty(), settings.epoch, run ? run->begin : ros::Time(0));
+  if (!duration) return Error{duration.error()};
+  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(*duration / dt - 1e-9)));
   const std::uint64_t every =
       options.every > 0 ? static_cast<std::uint64_t>(options.every)
                         : std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(1.0 / (30.0 * dt))));
@@ -147,13 +245,13 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   sceneMsg.data = sceneDocumentToString(*doc);
   const ros::Time origin = driver.stampOf(0.0).isZero() ? ros::Time(1e-9) : driver.stampOf(0.0);
   out.write(topics.scene, origin, sceneMsg);
-  out.write(topics.mesh, origin, driver.meshMessage());
+  out.write(topics.mesh, origin, toMsg(driver.simulator().model().mesh()));
   auto record = [&](const StepReport& r, double wall) {
     const ros::Time t = driver.now().isZero() ? origin : driver.now();
-    const ClothState state = driver.stateMessage();
+    const ClothState state = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), false);
     out.write(topics.state, t, state);
-    out.write(topics.energy, t, driver.energyMessage());
-    out.write(topics.stats, t, driver.statsMessage(r, wall, 0.0));
+    out.write(topics.energy, t, toMsg(driver.header(), driver.stepIndex(), driver.simulator().energies()));
+    out.write(topics.stats, t, statsMessage(driver, r, wall, 0.0));
     auto it = recorded.find(state.step);
     if (it != recorded.end()) {
       ++report.compared;
@@ -177,10 +275,11 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     }
     const StepReport r = driver.step();
     for (std::string& w : driver.takeWarnings()) report.warnings.push_back(std::move(w));
-    for (PinCommand& c : driver.takeAppliedPins()) out.write(topics.appliedPin, c.header.stamp, c);
-    for (ForceCommand& c : driver.takeAppliedForces()) out.write(topics.appliedForce, c.header.stamp, c);
+    writeApplied(driver, topics, out);
     if (!r.ok) {
-      return Error{"the simulation failed at step " + std::to_string(k + 1) + ": " + r.error};
+      // No bag: the writer removes its temporary file.
+      report.failure = "the simulation failed at step " + std::to_string(k + 1) + ": " + r.error;
+      break;
     }
     ++report.steps;
     if (wanted(driver.stepIndex())) {
@@ -193,7 +292,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.finalHash = stateHash(driver.simulator().state().x, driver.simulator().state().v);
   report.energy = driver.simulator().energies();
   report.stretch = EdgeStretchMeter(driver.simulator().model().mesh()).measure(driver.simulator().state().x);
-  if (Status s = out.close(); !s) return Error{s.error()};
+  if (report.failure.empty()) FEM_CLOTH_CHECK(out.close());
   return report;
 }
 

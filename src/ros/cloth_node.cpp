@@ -7,6 +7,7 @@
 #include <rosgraph_msgs/Clock.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <sstream>
 
@@ -28,6 +29,14 @@ std::string defaultSceneFile() {
 std::uint64_t everyFor(double rate, double dt) {
   if (rate <= 0.0) return 1;
   return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(1.0 / (rate * dt))));
+}
+
+// A frame name as a part of a topic name: characters a ROS name cannot hold become '_'.
+std::string topicSafe(const std::string& frame) {
+  std::string out;
+  for (char c : frame) out += std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/' ? c : '_';
+  if (out.empty() || std::isdigit(static_cast<unsigned char>(out[0]))) out = "frame_" + out;
+  return out;
 }
 
 }  // namespace
@@ -153,14 +162,9 @@ bool ClothNode::start(std::string* error) {
   Expected<YAML::Node> doc = Error{""};
   bool sceneKeys = private_.hasParam("scene_file") || private_.hasParam("mesh");
   if (replay && !sceneKeys) {
-    if (replay->sceneYaml.empty()) {
-      *error = "~replay_bag: " + replayBag_ + " holds no scene; give ~scene_file";
-      return false;
-    }
-    try {
-      doc = YAML::Load(replay->sceneYaml);
-    } catch (const YAML::Exception& e) {
-      *error = "~replay_bag: the stored scene is not valid YAML: " + e.msg;
+    doc = storedScene(*replay, ros::this_node::getName());
+    if (!doc) {
+      *error = "~replay_bag: " + doc.error() + " (~scene_file)";
       return false;
     }
     sourcePath = replayBag_;
@@ -197,12 +201,10 @@ bool ClothNode::start(std::string* error) {
   DriverSettings settings;
   settings.frame = frame_;
   settings.tfTimeout = tfTimeout_;
-  settings.publishVelocities = publishVelocities_;
   settings.maxPinJump = maxPinJump_;
   settings.maxPendingCommands = static_cast<std::size_t>(maxPendingCommands_);
   const double dt = scene->dt;
-  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), *scene, settings,
-                                               &tfBuffer_);
+  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), settings, &tfBuffer_, *doc);
   publishEvery_ = everyFor(publishRate_, dt);
   markerEvery_ = everyFor(markerRate_, dt);
   control_ = std::make_unique<RunControl>(startPaused_, dt);
@@ -220,27 +222,19 @@ bool ClothNode::start(std::string* error) {
   perception.clothFrames = replayBag_.empty();
   if (!readPerceptionParameters(private_, perception, error)) return false;
   Expected<std::unique_ptr<PerceptionOutputs>> outputs =
-      PerceptionOutputs::create(private_, *driver_, tfBuffer_, std::move(perception));
+      PerceptionOutputs::create(private_, *driver_, *scene, tfBuffer_, std::move(perception));
   if (!outputs) {
     *error = outputs.error();
     return false;
   }
   perception_ = std::move(outputs).value();
-  // Obstacles (only when the scene has some: a scene pays for what it declares).
-  const std::vector<std::string> obstacles = driver_->obstacleNames();
-  if (!obstacles.empty()) {
-    obstacleMarkerPub_ = private_.advertise<visualization_msgs::MarkerArray>("obstacle_markers", 2, true);
-  }
-  for (const std::string& name : obstacles) {
-    std::string why;
-    if (!ros::names::validate(name, why) || name.find('/') != std::string::npos) {
-      *error = "obstacle '" + name + "': its name must be a valid ROS name without '/' (it names "
-               "the topic ~obstacles/<name>/wrench)";
+  for (const std::string& name : driver_->obstacleNames()) {
+    if (Status s = obstacleNameProblem(name); !s) {
+      *error = s.error();
       return false;
     }
-    obstacleWrenchPubs_.push_back(
-        private_.advertise<geometry_msgs::WrenchStamped>("obstacles/" + name + "/wrench", 10));
   }
+  refreshObstacleTopics();
   advertise();
 
   std::ostringstream info;
@@ -267,25 +261,27 @@ void ClothNode::advertise() {
   scenePub_ = private_.advertise<std_msgs::String>("scene", 1, true);
   // Every applied command goes out (a recording replays exactly these), also in the burst after a
   // slow step: as many as may be pending.
-  appliedPinPub_ = private_.advertise<PinCommand>("applied_pin", maxPendingCommands_);
-  appliedForcePub_ = private_.advertise<ForceCommand>("applied_force", maxPendingCommands_);
+  // Each command topic (command_queue.h): its subscriber only hands the command to the inbox.
+  forEachCommandType([this](auto type) {
+    using C = typename decltype(type)::type;
+    const std::string name = CommandTraits<C>::name;
+    appliedPubs_.push_back(private_.advertise<C>("applied_" + name, maxPendingCommands_));
+    commandSubs_.push_back(private_.subscribe<C>(
+        name, commandQueueSize_,
+        boost::function<void(const typename C::ConstPtr&)>([this](const typename C::ConstPtr& m) { inbox_->push(*m); })));
+  });
   if (timeMode_ == TimeMode::Fast) clockPub_ = node_.advertise<rosgraph_msgs::Clock>("/clock", 10);
-  pinSub_ = private_.subscribe("pin", commandQueueSize_, &ClothNode::onPin, this);
-  forceSub_ = private_.subscribe("force", commandQueueSize_, &ClothNode::onForce, this);
   pauseSrv_ = private_.advertiseService("pause", &ClothNode::onPause, this);
   resumeSrv_ = private_.advertiseService("resume", &ClothNode::onResume, this);
   stepSrv_ = private_.advertiseService("step", &ClothNode::onStep, this);
   ros::NodeHandle blocking(private_);
   blocking.setCallbackQueue(&blockingQueue_);
   resetSrv_ = blocking.advertiseService("reset", &ClothNode::onReset, this);
+  live_ = std::make_unique<LiveServices>(private_, blocking, *inbox_, driver_->document());
   advanceSrv_ = blocking.advertiseService("advance", &ClothNode::onAdvance, this);
 }
 
 // --- Callbacks (roscpp's spinner threads): they never touch the simulation ----------------------
-
-void ClothNode::onPin(const PinCommand::ConstPtr& msg) { inbox_->push(*msg); }
-
-void ClothNode::onForce(const ForceCommand::ConstPtr& msg) { inbox_->push(*msg); }
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   res.success = control_->reset();
@@ -327,10 +323,10 @@ bool ClothNode::onAdvance(Advance::Request& req, Advance::Response& res) {
 
 void ClothNode::takeCommands() {
   for (const Command& c : inbox_->take()) {
-    const Status s = std::visit([this](const auto& command) { return driver_->submit(command); }, c);
+    const Status s = driver_->submit(c);
     if (!s) reject(topicOf(c), s.error());
   }
-  for (CommandTopic topic : {CommandTopic::Pin, CommandTopic::Force}) {
+  for (CommandTopic topic : commandTopics()) {
     const std::uint64_t refused = inbox_->tally(topic).refused;
     std::uint64_t& told = inboxRefusalsTold_[static_cast<std::size_t>(topic)];
     if (refused == told) continue;
@@ -381,8 +377,14 @@ CommandCounts ClothNode::commandCounts(CommandTopic topic) const {
   return combinedCounts(inbox_->tally(topic), driver_->commandCounts(topic));
 }
 
+void ClothNode::restartRealTimeFactorWindow() {
+  rtfWindowStart_ = ros::WallTime::now();
+  rtfWindowSimStart_ = driver_->simulator().time();
+}
+
 void ClothNode::doReset() {
   driver_->reset();
+  restartRealTimeFactorWindow();  // a window across the reset measured a negative factor
   tfWait_->clear();
   dueOrigin_ = ros::Time::now().toSec();
   if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) driver_->setEpoch(ros::Time::now());
@@ -395,6 +397,7 @@ void ClothNode::restartRealTime() {
   // Real time restarts from here: the pause is not made up for. A recorder that subscribed
   // while we were paused gets the current state first.
   dueOrigin_ = ros::Time::now().toSec() - driver_->simulator().time() / realTimeFactor_;
+  restartRealTimeFactorWindow();  // a window across the pause measured the pause as slowness
   if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
     driver_->setEpoch(ros::Time::now());
   }
@@ -440,8 +443,13 @@ void ClothNode::stepOnce() {
   const StepReport& report = lastReport_;
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
   // The commands as they took effect, stamped with their step: what a recording replays.
-  for (const PinCommand& c : driver_->takeAppliedPins()) appliedPinPub_.publish(c);
-  for (const ForceCommand& c : driver_->takeAppliedForces()) appliedForcePub_.publish(c);
+  bool obstaclesChanged = false;
+  for (const Command& c : driver_->takeApplied()) {
+    std::visit([this, &c](const auto& command) { appliedPubs_[c.index()].publish(command); }, c);
+    live_->applied(c, driver_->document());
+    obstaclesChanged = obstaclesChanged || std::holds_alternative<ObstacleCommand>(c);
+  }
+  if (obstaclesChanged) refreshObstacleTopics();
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
     diagnosticsSoon_ = true;
@@ -457,8 +465,7 @@ void ClothNode::stepOnce() {
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
   if (window >= 1.0) {
     realTimeFactorMeasured_ = (driver_->simulator().time() - rtfWindowSimStart_) / window;
-    rtfWindowStart_ = ros::WallTime::now();
-    rtfWindowSimStart_ = driver_->simulator().time();
+    restartRealTimeFactorWindow();
     if (timeMode_ == TimeMode::RealTime && !control_->paused() &&
         realTimeFactorMeasured_ < 0.9 * realTimeFactor_) {
       ROS_WARN_STREAM_THROTTLE(5.0, "fem_cloth_node: cannot keep up with real time: real-time factor "
@@ -483,32 +490,84 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
   const bool stateDue = force || step % publishEvery_ == 0;
   const bool markerDue = force || step % markerEvery_ == 0;
   if (stateDue) {
-    statePub_.publish(driver_->stateMessage());
-    if (wanted(energyPub_)) energyPub_.publish(driver_->energyMessage());
+    const Simulator& sim = driver_->simulator();
+    statePub_.publish(toMsg(driver_->header(), sim.state(), sim.dim(), publishVelocities_));
+    if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
-      StepStats stats = driver_->statsMessage(report, wallTime, realTimeFactorMeasured_);
+      StepStats stats = statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_);
       stats.pin_commands = toMsg(commandCounts(CommandTopic::Pin));
       stats.force_commands = toMsg(commandCounts(CommandTopic::Force));
       statsPub_.publish(stats);
     }
-    if (wanted(pinForcesPub_)) pinForcesPub_.publish(driver_->pinForcesMessage());
-    if (wanted(pinWrenchPub_)) {
-      for (const auto& w : driver_->pinWrenchMessages()) pinWrenchPub_.publish(w);
-    }
+    publishPinReactions();
     bool wrenchWanted = false;
     for (const ros::Publisher& pub : obstacleWrenchPubs_) wrenchWanted = wrenchWanted || wanted(pub);
-    if (wrenchWanted) {
-      const std::vector<geometry_msgs::WrenchStamped> wrenches = driver_->obstacleWrenchMessages();
+    if (wrenchWanted && sim.contact() != nullptr) {
+      const std::vector<geometry_msgs::WrenchStamped> wrenches = obstacleWrenches(driver_->header(), *sim.contact());
       for (std::size_t k = 0; k < wrenches.size() && k < obstacleWrenchPubs_.size(); ++k) {
         obstacleWrenchPubs_[k].publish(wrenches[k]);
       }
     }
   }
-  if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_)) {
-    obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+  if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_) && driver_->simulator().contact()) {
+    obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));
   }
   perception_->publish(stateDue, markerDue);
   publishDiagnostics(false);
+}
+
+void ClothNode::publishPinReactions() {
+  // One wrench topic per grasp frame (and one for the pins fixed in the simulation frame),
+  // advertised as soon as a pin follows the frame, so that a client can subscribe before it pulls.
+  std::vector<std::string> grasps = driver_->pins().frames();
+  if (!driver_->simulator().pinnedVertices().empty()) grasps.push_back(frame_);
+  bool graspWanted = false;
+  for (const std::string& frame : grasps) {
+    auto it = graspWrenchPubs_.find(tfFrameName(frame));
+    if (it == graspWrenchPubs_.end()) {
+      it = graspWrenchPubs_.emplace(tfFrameName(frame), private_.advertise<geometry_msgs::WrenchStamped>(
+                                                            "grasp/" + topicSafe(tfFrameName(frame)) + "/wrench", 10)).first;
+    }
+    graspWanted = graspWanted || wanted(it->second);
+  }
+  const bool forces = wanted(pinForcesPub_), wrenches = wanted(pinWrenchPub_) || graspWanted;
+  if (!forces && !wrenches) return;
+  // One copy of the reactions for every message.
+  const Simulator& sim = driver_->simulator();
+  const VectorX reactions = sim.pinReactions();
+  if (forces) pinForcesPub_.publish(toMsg(driver_->header(), sim.pinnedVertices(), reactions, sim.dim()));
+  if (!wrenches) return;
+  for (const GraspWrench& w : driver_->graspWrenches(reactions)) {
+    const geometry_msgs::WrenchStamped msg = toMsg(driver_->header(), w);
+    if (wanted(pinWrenchPub_)) pinWrenchPub_.publish(msg);
+    auto it = graspWrenchPubs_.find(tfFrameName(w.frame));
+    if (it != graspWrenchPubs_.end() && wanted(it->second)) it->second.publish(msg);
+  }
+}
+
+void ClothNode::refreshObstacleTopics() {
+  // Only when the scene has obstacles: a scene pays for what it declares.
+  const std::vector<std::string> names = driver_->obstacleNames();
+  if (!names.empty() && !obstacleMarkerPub_) {
+    obstacleMarkerPub_ = private_.advertise<visualization_msgs::MarkerArray>("obstacle_markers", 2, true);
+  }
+  std::vector<ros::Publisher> pubs;
+  for (const std::string& name : names) {
+    pubs.push_back(private_.advertise<geometry_msgs::WrenchStamped>("obstacles/" + name + "/wrench", 10));
+  }
+  obstacleWrenchPubs_.swap(pubs);  // the new ones first: a kept topic stays advertised
+  if (!obstacleMarkerPub_) return;
+  // Latched: RViz started later, or a paused node, still shows where the obstacles are; a
+  // removed one is deleted.
+  visualization_msgs::MarkerArray markers;
+  visualization_msgs::Marker clear;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  clear.ns = "obstacles";
+  markers.markers.push_back(clear);
+  if (const ContactModel* contact = driver_->simulator().contact()) {
+    for (const auto& m : obstacleMarkers(driver_->header(), *contact).markers) markers.markers.push_back(m);
+  }
+  obstacleMarkerPub_.publish(markers);
 }
 
 void ClothNode::publishDiagnostics(bool force) {
@@ -533,7 +592,7 @@ void ClothNode::publishDiagnostics(bool force) {
   add("step", std::to_string(driver_->stepIndex()));
   add("real-time factor", std::to_string(realTimeFactorMeasured_));
   std::uint64_t rejected = 0;
-  for (CommandTopic topic : {CommandTopic::Pin, CommandTopic::Force}) {
+  for (CommandTopic topic : commandTopics()) {
     const CommandCounts c = commandCounts(topic);
     const std::string name = std::string("~") + topicName(topic) + " commands ";
     add(name + "received", std::to_string(c.received));
@@ -563,10 +622,10 @@ void ClothNode::begin() {
       hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : now);
   driver_->setEpoch(epoch);
   dueOrigin_ = (hasStartTime_ && timeMode_ == TimeMode::RealTime ? epoch : now).toSec();
-  rtfWindowStart_ = ros::WallTime::now();
-  meshPub_.publish(driver_->meshMessage());
+  restartRealTimeFactorWindow();
+  meshPub_.publish(toMsg(driver_->simulator().model().mesh()));
   // Latched: RViz started later, or a paused node, still shows where the obstacles are.
-  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(driver_->obstacleMarkers());
+  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));
   std_msgs::String sceneMsg;
   sceneMsg.data = sceneText_;
   scenePub_.publish(sceneMsg);

@@ -4,7 +4,23 @@
 
 namespace fem_cloth {
 
-const char* topicName(CommandTopic topic) { return topic == CommandTopic::Pin ? "pin" : "force"; }
+const char* topicName(CommandTopic topic) {
+  static const std::array<const char*, kCommandTopics> names = [] {
+    std::array<const char*, kCommandTopics> out{};
+    forEachCommandType([&out](auto type) {
+      using C = typename decltype(type)::type;
+      out[static_cast<std::size_t>(topicOf<C>())] = CommandTraits<C>::name;
+    });
+    return out;
+  }();
+  return names[static_cast<std::size_t>(topic)];
+}
+
+std::array<CommandTopic, kCommandTopics> commandTopics() {
+  std::array<CommandTopic, kCommandTopics> out{};
+  for (std::size_t k = 0; k < kCommandTopics; ++k) out[k] = static_cast<CommandTopic>(k);
+  return out;
+}
 
 Status CommandQueue::push(double time, Command command) {
   if (pending_.size() >= capacity_) {

@@ -266,10 +266,11 @@ bool readPerceptionParameters(const ros::NodeHandle& nh, PerceptionSettings& s, 
 
 Expected<std::unique_ptr<PerceptionOutputs>> PerceptionOutputs::create(ros::NodeHandle privateNode,
                                                                       const SimulationDriver& driver,
+                                                                      const Scene& scene,
                                                                       const tf2::BufferCore& tf,
                                                                       PerceptionSettings settings) {
   Expected<std::vector<ClothFrame>> frames =
-      resolveClothFrames(driver.scene(), driver.simulator().model().mesh());
+      resolveClothFrames(scene, driver.simulator().model().mesh());
   if (!frames) return Error{"scene " + frames.error()};
   return std::unique_ptr<PerceptionOutputs>(
       new PerceptionOutputs(privateNode, driver, tf, std::move(settings), std::move(frames).value()));

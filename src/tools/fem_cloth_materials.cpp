@@ -185,7 +185,7 @@ int runEval() {
   }
   if (std::cin.bad()) {
     std::cerr << "fem_cloth_materials eval: cannot read standard input\n";
-    return 1;
+    return 2;
   }
   return 0;
 }
@@ -271,7 +271,7 @@ int runSweep(const SweepOptions& o) {
   std::ofstream csv(csvPath);
   if (!csv) {
     std::cerr << "fem_cloth_materials sweep: cannot write " << csvPath << "\n";
-    return 1;
+    return 2;
   }
   csv << kSweepHeader << "\n";
   const DefGrad<2> T = DefGrad<2>::Identity();
@@ -294,7 +294,7 @@ int runSweep(const SweepOptions& o) {
   csv.close();
   if (!csv) {
     std::cerr << "fem_cloth_materials sweep: error writing " << csvPath << "\n";
-    return 1;
+    return 2;
   }
   std::cout << "wrote " << csvPath.string() << " (" << materialNames().size() << " models x "
             << o.count << " values of s)\n";
@@ -302,7 +302,7 @@ int runSweep(const SweepOptions& o) {
     const fs::path pngPath = fs::path(o.outDir) / "material_sweep.png";
     if (const std::string problem = plotSweep(csvPath, pngPath, o); !problem.empty()) {
       std::cerr << "fem_cloth_materials sweep --plot: " << problem << "\n";
-      return 1;
+      return 2;
     }
     std::cout << "wrote " << pngPath.string() << "\n";
   }
@@ -425,17 +425,111 @@ int runAudit(double mu, double lambda, const std::string& csvPath) {
     csv.close();
     if (!csv) {
       std::cerr << "fem_cloth_materials audit: cannot write " << csvPath << "\n";
-      return 1;
+      return 2;
     }
     std::cout << "\nwrote " << csvPath << "\n";
   }
   return 0;
 }
 
+// ---------------------------------------------------------------------------------------------
+// from-bending-length, from-elongation: scene keys from a textile lab's measurements
+// ---------------------------------------------------------------------------------------------
+
+struct LabOptions {
+  // from-bending-length
+  double length = 0.0, overhang = 0.0, density = 0.0, gravity = 9.81;
+  // from-elongation
+  double force = 0.0, width = 0.0, strain = 0.0, extension = 0.0, gaugeLength = 0.0;
+  double thickness = 5e-4, poisson = 0.3;
+};
+
+/// An error for a value that must be positive and finite, or "".
+std::string positive(double value, const std::string& option) {
+  if (value > 0.0 && std::isfinite(value)) return "";
+  return option + " must be positive and finite, got " + json(value).dump();
+}
+
+int labError(const std::string& subcommand, const std::string& message) {
+  std::cerr << "fem_cloth_materials " << subcommand << ": " << message << "\n";
+  return 2;
+}
+
+/// Peirce 1930 / ASTM D1388: the strip's bending length c (the overhang at which its tip chord
+/// reaches 41.5 deg, halved) gives the rigidity per unit width B = w c^3, w = rho_A g.
+int runFromBendingLength(const LabOptions& o) {
+  const std::string name = "from-bending-length";
+  if ((o.length > 0.0) == (o.overhang > 0.0)) return labError(name, "give --length or --overhang (one of them)");
+  const double c = o.length > 0.0 ? o.length : 0.5 * o.overhang;
+  for (const std::string& e : {positive(c, o.length > 0.0 ? "--length" : "--overhang"), positive(o.density, "--density"),
+                               positive(o.gravity, "--gravity"), positive(o.thickness, "--thickness")}) {
+    if (!e.empty()) return labError(name, e);
+  }
+  const double w = o.density * o.gravity;
+  std::cout << "# bending length c = " << c << " m, areal density " << o.density << " kg/m^2 (w = rho_A g = " << w
+            << " N/m^2)\n"
+            << "# B = w c^3 (Peirce 1930, ASTM D1388): the rigidity per unit width\n"
+            << "bending:\n"
+            << "  model: midedge\n"
+            << "  stiffness: " << w * c * c * c << "   # N m\n"
+            << "  poisson_ratio: 0.0   # woven cloth (docs/bending.md)\n"
+            << "material:\n"
+            << "  thickness: " << o.thickness << "   # m\n"
+            << "  density: " << o.density / o.thickness << "   # kg/m^3: areal density " << o.density << " kg/m^2\n";
+  return 0;
+}
+
+/// A strip test (e.g. ASTM D5035): force F on a strip of width w at strain e gives the membrane
+/// stiffness E h = F / (w e).
+int runFromElongation(const LabOptions& o) {
+  const std::string name = "from-elongation";
+  const bool byExtension = o.extension > 0.0 || o.gaugeLength > 0.0;
+  if ((o.strain > 0.0) == byExtension) return labError(name, "give --strain, or --extension with --gauge-length");
+  const double strain = byExtension ? o.extension / o.gaugeLength : o.strain;
+  for (const std::string& e : {positive(o.force, "--force"), positive(o.width, "--width"),
+                               positive(byExtension ? o.extension : o.strain, byExtension ? "--extension" : "--strain"),
+                               byExtension ? positive(o.gaugeLength, "--gauge-length") : std::string(),
+                               positive(o.thickness, "--thickness")}) {
+    if (!e.empty()) return labError(name, e);
+  }
+  if (!(o.poisson >= 0.0 && o.poisson < 0.5)) return labError(name, "--poisson must be in [0, 0.5), got " + json(o.poisson).dump());
+  const double Eh = o.force / (o.width * strain);
+  std::cout << "# strip test: " << o.force << " N on a " << o.width << " m wide strip at strain " << strain << "\n"
+            << "# E h = F / (w strain) = " << Eh << " N/m\n"
+            << "material:\n"
+            << "  youngs_modulus: " << Eh / o.thickness << "   # Pa at the thickness below\n"
+            << "  poisson_ratio: " << o.poisson << "\n"
+            << "  thickness: " << o.thickness << "   # m\n";
+  return 0;
+}
+
+/// The two lab subcommands, with their options bound to `o`.
+std::pair<CLI::App*, CLI::App*> addLabSubcommands(CLI::App& app, LabOptions& o) {
+  CLI::App* bending = app.add_subcommand(
+      "from-bending-length", "bending.stiffness from a cantilever test (Peirce 1930, ASTM D1388): B = w c^3");
+  bending->add_option("--length", o.length, "bending length c (m)");
+  bending->add_option("--overhang", o.overhang, "or the overhang (m) at which the tip reaches 41.5 deg (c = overhang / 2)");
+  bending->add_option("--density", o.density, "areal density (kg/m^2)")->required();
+  bending->add_option("--gravity", o.gravity, "m/s^2")->capture_default_str();
+  bending->add_option("--thickness", o.thickness, "thickness for the printed density (m)")->capture_default_str();
+  CLI::App* elongation = app.add_subcommand(
+      "from-elongation", "material keys from a strip tensile test: E h = F / (w strain)");
+  elongation->add_option("--force", o.force, "tensile force (N)")->required();
+  elongation->add_option("--width", o.width, "strip width (m)")->required();
+  elongation->add_option("--strain", o.strain, "strain at that force (dimensionless)");
+  elongation->add_option("--extension", o.extension, "or the extension (m) ...");
+  elongation->add_option("--gauge-length", o.gaugeLength, "... over this gauge length (m)");
+  elongation->add_option("--thickness", o.thickness, "thickness (m): E = E h / thickness")->capture_default_str();
+  elongation->add_option("--poisson", o.poisson, "Poisson ratio to print")->capture_default_str();
+  return {bending, elongation};
+}
+
 }  // namespace
 }  // namespace fem_cloth
 
-int main(int argc, char** argv) {
+namespace {
+
+int run(int argc, char** argv) {
   using namespace fem_cloth;
   CLI::App app{"fem_cloth_materials: explore fem_cloth's membrane material models (linear, stvk, "
                "corotational, arap, neo_hookean, stable_neo_hookean). Lame parameters are "
@@ -460,7 +554,7 @@ Output: one JSON line per non-blank input line, in order:
   Neo-Hookean with J <= 0, ...); the tool then goes on with the next line.
 Blank lines (empty or white space only) are skipped: they get no output line, so a reply matches
 the N-th non-blank input line; error messages give the input line number.
-Exit status: 0, also when lines had errors; 1 if standard input cannot be read.)");
+Exit status: 0, also when lines had errors; 2 if standard input cannot be read.)");
 
   SweepOptions sweepOptions;
   CLI::App* sweep = app.add_subcommand(
@@ -496,16 +590,41 @@ s <= 0) psi is inf and P11, P22 are nan.)");
                     "numbers as in the table, nan where not measured)");
   audit->footer(kAuditLegend);
 
+  LabOptions lab;
+  const auto [fromBendingLength, fromElongation] = addLabSubcommands(app, lab);
+
   // CLI11 reports a misspelt subcommand only as "A subcommand is required"; name it instead.
-  const std::vector<std::string> subcommands = {"eval", "sweep", "audit"};
+  const std::vector<std::string> subcommands = {"eval", "sweep", "audit", "from-bending-length", "from-elongation"};
   if (argc > 1 && argv[1][0] != '-' &&
       std::find(subcommands.begin(), subcommands.end(), argv[1]) == subcommands.end()) {
     std::cerr << "fem_cloth_materials: unknown subcommand '" << argv[1]
-              << "' (expected eval, sweep or audit; see --help)\n";
+              << "' (expected eval, sweep, audit, from-bending-length or from-elongation; see --help)\n";
     return 2;
   }
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help succeeds; any other parse error is one line, exit status 2.
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
+    std::cerr << "fem_cloth_materials: " << e.what() << " (see --help)\n";
+    return 2;
+  }
   if (eval->parsed()) return runEval();
   if (sweep->parsed()) return runSweep(sweepOptions);
+  if (fromBendingLength->parsed()) return runFromBendingLength(lab);
+  if (fromElongation->parsed()) return runFromElongation(lab);
   return runAudit(auditMu, auditLambda, auditCsv);
+}
+
+}  // namespace
+
+// Exit status: 0, 2 bad input (options, an output that cannot be written, unreadable standard
+// input), 3 an unexpected error; each with one line on stderr.
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "fem_cloth_materials: " << e.what() << '\n';
+    return 3;
+  }
 }

@@ -43,6 +43,7 @@
 #include "fem_cloth/report/cases.h"
 #include "fem_cloth/report/run.h"
 #include "fem_cloth/report/stability.h"
+#include "fem_cloth/ros/bag_replay.h"
 
 using namespace fem_cloth;
 using namespace fem_cloth::report;
@@ -54,6 +55,8 @@ struct Options {
   std::string cache;  // default: <out>/cache
   std::string configDir = FEM_CLOTH_CONFIG_DIR;
   std::string bag = FEM_CLOTH_GRASP_BAG;
+  std::shared_ptr<const Recording> recording;  // the bag, read (null: none, or it failed)
+  std::string recordingError;
   bool small = false;
   std::string study = "all";
   std::vector<std::string> integrators, scenes, cases, materials, stiffness;
@@ -167,7 +170,11 @@ struct WorkPrecisionRow {
 // Work precision
 // ------------------------------------------------------------------------------------------------
 int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
-  Expected<std::vector<AccuracyScene>> scenes = accuracyScenes(opt.configDir, opt.bag, opt.small);
+  if (!opt.recordingError.empty()) {
+    std::cerr << "fem_cloth_report: " << opt.recordingError << '\n';
+    return 2;
+  }
+  Expected<std::vector<AccuracyScene>> scenes = accuracyScenes(opt.configDir, opt.recording, opt.small);
   if (!scenes) {
     std::cerr << "fem_cloth_report: " << scenes.error() << '\n';
     return 2;
@@ -249,17 +256,8 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
   std::vector<WorkPrecisionRow> rows;
 
   for (const AccuracyScene& s : chosen) {
-    std::shared_ptr<const RecordedRun> commands;
-    double recordedDt = 0.0;
-    if (!s.commandsBag.empty()) {
-      Expected<RecordedRun> run = readRun(s.commandsBag);
-      if (!run) {
-        std::cerr << "fem_cloth_report: " << run.error() << '\n';
-        return 2;
-      }
-      commands = std::make_shared<const RecordedRun>(std::move(run).value());
-      recordedDt = s.document["integrator"]["dt"].as<double>(0.01);
-    }
+    const std::shared_ptr<const Recording> commands = s.recording;
+    const double recordedDt = commands ? s.document["integrator"]["dt"].as<double>(0.01) : 0.0;
     auto request = [&](const std::vector<std::string>& overrides) -> Expected<RunRequest> {
       std::vector<std::string> all = opt.overrides;
       all.insert(all.end(), overrides.begin(), overrides.end());
@@ -709,7 +707,7 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+static int runReport(int argc, char** argv) {
   Options opt;
   CLI::App app{
       "The fem_cloth accuracy and stability report (docs/accuracy.md): work precision and\n"
@@ -778,6 +776,15 @@ int main(int argc, char** argv) {
     const int status = stability(opt, unused, nonFinite);
     return status != 0 ? status : (nonFinite ? 4 : 0);
   }
+  // The recorded grasp, read by the ROS side's bag reader (the report library knows no bags).
+  if (!opt.bag.empty()) {
+    Expected<std::shared_ptr<const Recording>> recording = readRecording(opt.bag);
+    if (recording) {
+      opt.recording = *recording;
+    } else {
+      opt.recordingError = recording.error();
+    }
+  }
   std::error_code ec;
   std::filesystem::create_directories(opt.out, ec);
   if (ec) {
@@ -794,7 +801,7 @@ int main(int argc, char** argv) {
     }
   }
   if (opt.study != "stability") {
-    if (Expected<std::vector<AccuracyScene>> scenes = accuracyScenes(opt.configDir, opt.bag, opt.small)) {
+    if (Expected<std::vector<AccuracyScene>> scenes = accuracyScenes(opt.configDir, opt.recording, opt.small)) {
       for (const AccuracyScene& s : *scenes) {
         std::ofstream(opt.out + "/scenes/" + s.name + ".yaml")
             << "# work-precision scene: " << s.description << "\n" << sceneDocumentToString(s.document) << '\n';
@@ -819,4 +826,14 @@ int main(int argc, char** argv) {
     return 4;
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  // The last line of defence: an unexpected exception is one line and status 3, not an abort.
+  try {
+    return runReport(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "fem_cloth_report: " << e.what() << '\n';
+    return 3;
+  }
 }

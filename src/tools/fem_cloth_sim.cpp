@@ -2,14 +2,16 @@
 //
 //   fem_cloth_sim --scene config/hanging_cloth.yaml [--integrator NAME] [--dt S]
 //                 [--duration S] [--set key=value]... [--out DIR | --out FILE.bag] [--every N]
-//   fem_cloth_sim --commands recorded.bag --out replay.bag [--scene S] [--verify]
+//   fem_cloth_sim --commands recorded.bag [--out replay.bag] [--scene S] [--verify]
 //   fem_cloth_sim --scene S [--set key=value]... --check [--write-scene FILE]
 //
 // --summary-json FILE also writes the summary for programs (fem_cloth_batch's index).
 //
-// Exit status: 0 success, 2 bad scene, bag or command line, 3 the simulation failed (the error
-// says why; CSV outputs hold everything up to the last good state, a bag is not written),
-// 4 with --verify: a recorded state was not reproduced bit for bit.
+// Exit status: 0 success, 2 bad input (scene, bag, command line, an output that is an input),
+// 3 the simulation failed (the error says why; CSV outputs hold everything up to the last good
+// state, a bag is not written) or an unexpected internal error, 4 with --verify: a recorded state
+// was not reproduced bit for bit. Every error is one line on stderr. Outputs appear under their
+// names only when complete (written to a temporary file next to them, then renamed).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -26,6 +28,7 @@
 
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
 #include "fem_cloth/ros/simulation_driver.h"
@@ -52,6 +55,9 @@ struct Options {
   std::string writeScene;
   std::string summaryJson;
 };
+
+// Every message is one line on stderr, whatever names from the inputs (frames, topics) it quotes.
+std::string oneLine(const std::string& text) { return printableText(text, 2000); }
 
 struct Totals {
   std::uint64_t steps = 0;
@@ -95,14 +101,14 @@ class Progress {
   std::chrono::steady_clock::time_point start_, last_;
 };
 
-void writeFrame(std::ofstream& trajectory, const Simulator& sim) {
+void writeFrame(std::ostream& trajectory, const Simulator& sim) {
   const State& s = sim.state();
   trajectory << std::setprecision(17) << s.time << ',' << s.step;
   for (Eigen::Index i = 0; i < s.x.size(); ++i) trajectory << ',' << s.x[i];
   trajectory << '\n';
 }
 
-void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stretch, double minJ) {
+void writeEnergy(std::ostream& energy, Simulator& sim, const EdgeStretch& stretch, double minJ) {
   const EnergyReport e = sim.energies();
   const StepReport& r = sim.lastReport();
   energy << std::setprecision(12) << sim.time() << ',' << sim.state().step << ',' << e.kinetic
@@ -113,20 +119,21 @@ void writeEnergy(std::ofstream& energy, Simulator& sim, const EdgeStretch& stret
          << r.rollbacks << '\n';
 }
 
-// Written to PATH.partial and renamed: a file under the final name is always complete.
-bool writeTextFile(const std::string& path, const std::string& text) {
-  const std::string partial = path + ".partial";
-  std::ofstream file(partial);
-  file << text;
-  file.close();
-  std::error_code ec;
-  if (file) std::filesystem::rename(partial, path, ec);
-  if (!file || ec) {
-    std::filesystem::remove(partial, ec);
-    std::cerr << "fem_cloth_sim: cannot write '" << path << "'\n";
-    return false;
+// A small text output (--write-scene, --summary-json): never one of the inputs, and complete
+// under its name or absent (OutputFile).
+bool writeTextFile(const std::string& path, const std::string& text, const std::vector<std::string>& inputs) {
+  Status written = checkNotAnInput(path, inputs);
+  if (written) {
+    Expected<std::unique_ptr<OutputFile>> file = OutputFile::open(path);
+    if (file) {
+      (*file)->stream() << text;
+      written = (*file)->commit();
+    } else {
+      written = Error{file.error()};
+    }
   }
-  return true;
+  if (!written) std::cerr << "fem_cloth_sim: " << oneLine(written.error()) << '\n';
+  return static_cast<bool>(written);
 }
 
 // --summary-json: the summary for programs, in SI units (J, s); state_hash is ClothState's hash
@@ -142,8 +149,9 @@ Json energyJson(const EnergyReport& e) {
               {"dissipated", e.dissipated},   {"balance_error", e.balanceError}};
 }
 
-bool writeSummaryJson(const std::string& path, const Json& summary) {
-  return path.empty() || writeTextFile(path, summary.dump(2) + "\n");
+bool writeSummaryJson(const Options& opt, const Json& summary) {
+  return opt.summaryJson.empty() ||
+         writeTextFile(opt.summaryJson, summary.dump(2) + "\n", {opt.scene, opt.commands, opt.out});
 }
 
 // A scene file with its overrides applied, parsed and built as a run would build it.
@@ -169,11 +177,12 @@ Expected<Loaded> loadAndBuild(const std::string& path, const std::vector<std::st
 int checkScene(const Options& opt, const std::vector<std::string>& overrides) {
   Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
   if (!loaded) {
-    std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
+    std::cerr << "fem_cloth_sim: " << oneLine(loaded.error()) << '\n';
     return 2;
   }
   if (!opt.writeScene.empty() &&
-      !writeTextFile(opt.writeScene, sceneDocumentToString(loaded->document) + "\n")) {
+      !writeTextFile(opt.writeScene, sceneDocumentToString(loaded->document) + "\n",
+                     {opt.scene, meshFilePath(loaded->scene)})) {
     return 2;
   }
   if (opt.check) {
@@ -199,17 +208,19 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   options.progress = !opt.quiet;
   Expected<BagRunReport> report = runToBag(opt.commands, opt.out, options);
   if (!report) {
-    const bool failed = report.error().find("the simulation failed") != std::string::npos;
-    std::cerr << "fem_cloth_sim: " << report.error() << (failed ? "; no bag was written" : "")
-              << '\n';
-    return failed ? 3 : 2;
+    std::cerr << "fem_cloth_sim: " << oneLine(report.error()) << '\n';
+    return 2;
   }
   const BagRunReport& r = *report;
-  for (const std::string& w : r.warnings) std::cerr << "fem_cloth_sim: warning: " << w << '\n';
+  for (const std::string& w : r.warnings) std::cerr << "fem_cloth_sim: warning: " << oneLine(w) << '\n';
   std::cout << std::setprecision(4);
   std::cout << "scene:        " << r.scene << ", " << r.integrator << '\n';
   if (!opt.commands.empty()) {
-    std::cout << "commands:     " << r.pinCommands << " pin, " << r.forceCommands << " force from "
+    std::cout << "commands:     ";
+    for (fem_cloth::CommandTopic topic : fem_cloth::commandTopics()) {
+      std::cout << r.commands[static_cast<std::size_t>(topic)] << ' ' << fem_cloth::topicName(topic) << ", ";
+    }
+    std::cout << "from "
               << opt.commands << " ("
               << (r.exactCommands ? "as applied by the node: exact steps"
                                   : "as sent: applied at the step after they were recorded")
@@ -227,8 +238,8 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
             << ", bending " << r.energy.bending << ", gravity " << r.energy.gravity << ", total "
             << r.energy.total << ", balance error " << r.energy.balanceError << '\n';
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
-  std::cout << "output:       " << opt.out << '\n';
-  const Json summary{{"status", "ok"},
+  const Json summary{{"status", r.failure.empty() ? "ok" : "failed"},
+                     {"error", r.failure},
                      {"scene", r.scene},
                      {"integrator", r.integrator},
                      {"steps", r.steps},
@@ -237,8 +248,13 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
                      {"energy", energyJson(r.energy)},
                      {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
                      {"state_hash", r.finalHash},
-                     {"outputs", {opt.out}}};
-  if (!writeSummaryJson(opt.summaryJson, summary)) return 2;
+                     {"outputs", r.failure.empty() && !opt.out.empty() ? Json::array({opt.out}) : Json::array()}};
+  if (!writeSummaryJson(opt, summary)) return 2;
+  if (!r.failure.empty()) {
+    std::cerr << "fem_cloth_sim: " << oneLine(r.failure) << "; no bag was written\n";
+    return 3;
+  }
+  std::cout << "output:       " << (opt.out.empty() ? "none (no --out)" : opt.out) << '\n';
   if (opt.verify && r.identical < r.compared) {
     std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
               << " recorded states were not reproduced\n";
@@ -251,10 +267,212 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   return 0;
 }
 
-}  // namespace
+// trajectory.csv and energy.csv in the output folder, with their header lines.
+struct CsvOutputs {
+  std::string folder;
+  std::unique_ptr<OutputFile> trajectory, energy;
+};
 
-int main(int argc, char** argv) {
-  fem_cloth::preferPassiveThreadWaiting(argv);
+Expected<CsvOutputs> openCsvOutputs(const Options& opt, const Scene& scene, const Simulator& simulator) {
+  CsvOutputs out;
+  // The default folder is named after the scene: a word (validateScene), so it stays inside
+  // fem_cloth_output.
+  out.folder = opt.out.empty() ? "fem_cloth_output/" + scene.name : opt.out;
+  std::error_code ec;
+  std::filesystem::create_directories(out.folder, ec);
+  if (ec) return Error{"cannot create output folder '" + out.folder + "': " + ec.message()};
+  const std::vector<std::string> inputs = {opt.scene, meshFilePath(scene)};
+  for (auto [file, name] : {std::pair{&out.trajectory, "trajectory.csv"}, std::pair{&out.energy, "energy.csv"}}) {
+    const std::string path = out.folder + "/" + name;
+    FEM_CLOTH_CHECK(checkNotAnInput(path, inputs));
+    Expected<std::unique_ptr<OutputFile>> opened = OutputFile::open(path);
+    if (!opened) return Error{opened.error()};
+    *file = std::move(opened).value();
+  }
+  std::ostream& trajectory = out.trajectory->stream();
+  trajectory << "time,step";
+  const char* axes = "xyz";
+  for (Index i = 0; i < simulator.model().numVertices(); ++i) {
+    for (int k = 0; k < simulator.dim(); ++k) trajectory << ',' << axes[k] << i;
+  }
+  trajectory << '\n';
+  out.energy->stream() << "time,step,kinetic,strain,bending,gravity,external_work,pin_work,dissipated,total,"
+                          "balance_error,mean_stretch,max_stretch,min_area_ratio,substeps,newton_iterations,"
+                          "residual,backtracks,rollbacks\n";
+  return out;
+}
+
+void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, const Totals& totals,
+                  std::uint64_t totalSteps, double wall, const EnergyReport& initialEnergy,
+                  const EdgeStretch& st, const std::string& outDir) {
+  const EnergyReport e = simulator.energies();
+  std::ostringstream summary;
+  summary << std::setprecision(4);
+  summary << "scene:        " << scene.name << " (" << opt.scene << "), "
+          << simulator.model().numVertices() << " vertices, " << simulator.model().mesh().numTriangles()
+          << " triangles, model " << scene.materialModel << '\n';
+  summary << "integrator:   " << simulator.integrator().name() << ", dt " << scene.dt << " s";
+  // Their iterations are local sweeps (XPBD) or local/global iterations (PD), not Newton's.
+  const bool iteratesLocally = scene.integrator == "xpbd" || scene.integrator == "projective_dynamics";
+  if (iteratesLocally) {
+    summary << ", " << scene.iterations << " iterations";
+  }
+  summary << '\n';
+  summary << "steps:        " << totals.steps << " of " << totalSteps << " (" << totals.substeps
+          << " substeps), simulated " << simulator.time() << " s in " << wall << " s wall"
+          << " (real-time factor " << simulator.time() / std::max(wall, 1e-9) << ")\n";
+  summary << "energy (J):   kinetic " << e.kinetic << ", strain " << e.strain << ", bending "
+          << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
+  summary << "work (J):     external " << e.externalWork << ", pins " << e.pinWork
+          << ", dissipated by damping " << e.dissipated << '\n';
+  if (const ContactModel* contact = simulator.contact()) {
+    // What each obstacle carries at the end (N, in the simulation frame): a table under a
+    // resting cloth carries its weight.
+    const StepReport& last = simulator.lastReport();
+    summary << "contact:      " << last.contacts << " contacts at the end, closest "
+            << last.minContactDistance << " m, work " << e.contactWork << " J";
+    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
+      const Eigen::Vector3d f = contact->wrenches()[k].force;
+      summary << "; '" << contact->obstacle(k).name << "' feels [" << f.x() << ", " << f.y() << ", "
+              << f.z() << "] N";
+    }
+    summary << '\n';
+  }
+  const double energyScale =
+      std::max({std::abs(initialEnergy.total), std::abs(e.gravity), std::abs(e.total), 1e-12});
+  summary << "balance:      error " << e.balanceError << " J (" << 100.0 * e.balanceError / energyScale
+          << " % of the energy scale " << energyScale << " J; numerical dissipation "
+          << e.numericalDissipation << " J, created " << e.created << " J)\n";
+  summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
+          << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
+  summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
+  auto perStep = [&](std::uint64_t count) {
+    return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
+  };
+  if (iteratesLocally) {
+    summary << "solver:       " << totals.localIterations << " "
+            << (scene.integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
+            << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
+            << " substeps, " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else if (scene.integrator == "symplectic_euler") {
+    summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
+            << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else {
+    summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
+            << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
+            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks
+            << " rollbacks, " << totals.failures << " failures\n";
+  }
+  if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
+  std::cout << summary.str();
+}
+
+// A scene run headless into CSV files (or none).
+int runScene(const Options& opt, const std::vector<std::string>& overrides) {
+  Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
+  if (!loaded) {
+    std::cerr << "fem_cloth_sim: " << oneLine(loaded.error()) << '\n';
+    return 2;
+  }
+  const Scene* scene = &loaded->scene;
+  Simulation& sim = loaded->simulation;
+  for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << oneLine(w) << '\n';
+  Simulator& simulator = *sim.simulator;
+  const double dt = scene->dt;
+  const std::uint64_t totalSteps =
+      static_cast<std::uint64_t>(std::llround(std::ceil(scene->duration / dt - 1e-9)));
+  const int every = opt.every > 0 ? opt.every : std::max(1, static_cast<int>(std::lround(1.0 / (60.0 * dt))));
+
+  CsvOutputs outputs;
+  if (!opt.noOutput) {
+    Expected<CsvOutputs> opened = openCsvOutputs(opt, *scene, simulator);
+    if (!opened) {
+      std::cerr << "fem_cloth_sim: " << oneLine(opened.error()) << '\n';
+      return 2;
+    }
+    outputs = std::move(opened).value();
+  }
+
+  const EdgeStretchMeter stretchMeter(*sim.mesh);
+  const EnergyReport initialEnergy = simulator.energies();
+  Totals totals;
+  auto observe = [&](bool write) {
+    const EdgeStretch st = stretchMeter.measure(simulator.state().x);
+    const double minJ = minAreaRatio(simulator.model().mesh(), simulator.model().rest(), simulator.state().x);
+    totals.minAreaRatio = std::min(totals.minAreaRatio, minJ);
+    totals.maxStretch = std::max(totals.maxStretch, st.max);
+    if (write && !opt.noOutput) {
+      writeFrame(outputs.trajectory->stream(), simulator);
+      writeEnergy(outputs.energy->stream(), simulator, st, minJ);
+    }
+  };
+  observe(true);
+
+  std::string failure;
+  Progress progress(scene->duration, !opt.quiet);
+  const auto wallStart = std::chrono::steady_clock::now();
+  for (std::uint64_t k = 0; k < totalSteps; ++k) {
+    if (Status s = sim.script.applyDue(simulator); !s) {
+      failure = s.error();
+      break;
+    }
+    const StepReport r = simulator.step();
+    if (!r.ok) {
+      ++totals.failures;
+      totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+      failure = r.error;
+      break;
+    }
+    ++totals.steps;
+    totals.newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
+    totals.localIterations += static_cast<std::uint64_t>(r.iterations);
+    totals.backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
+    totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+    totals.substeps += static_cast<std::uint64_t>(r.substeps);
+    totals.maxResidual = std::max(totals.maxResidual, r.residual);
+    const bool write = (k + 1) % static_cast<std::uint64_t>(every) == 0 || k + 1 == totalSteps;
+    observe(write);
+    progress.update(simulator.time(), totals.steps);
+  }
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+  progress.finish();
+  if (!opt.noOutput && !failure.empty()) observe(true);
+  // The outputs hold the run up to its last good state, also when it failed.
+  if (!opt.noOutput) {
+    for (OutputFile* file : {outputs.trajectory.get(), outputs.energy.get()}) {
+      if (Status s = file->commit(); !s) {
+        std::cerr << "fem_cloth_sim: " << oneLine(s.error()) << '\n';
+        return 2;
+      }
+    }
+  }
+  const EdgeStretch st = stretchMeter.measure(simulator.state().x);
+  printSummary(opt, *scene, simulator, totals, totalSteps, wall, initialEnergy, st, outputs.folder);
+  Json files = Json::array();
+  if (!opt.noOutput) files = {outputs.folder + "/trajectory.csv", outputs.folder + "/energy.csv"};
+  const Json json{{"status", failure.empty() ? "ok" : "failed"},
+                  {"error", failure},
+                  {"scene", scene->name},
+                  {"integrator", simulator.integrator().name()},
+                  {"steps", totals.steps},
+                  {"total_steps", totalSteps},
+                  {"simulated_s", simulator.time()},
+                  {"wall_s", wall},
+                  {"energy", energyJson(simulator.energies())},
+                  {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
+                  {"min_area_ratio", totals.minAreaRatio},
+                  {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
+                  {"outputs", files}};
+  if (!writeSummaryJson(opt, json)) return 2;
+  if (!failure.empty()) {
+    std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: " << oneLine(failure) << '\n';
+    return 3;
+  }
+  return 0;
+}
+
+int run(int argc, char** argv) {
   Options opt;
   CLI::App app{
       "Runs a fem_cloth scene headless (no ROS master needed) and prints a summary.\n"
@@ -273,7 +491,7 @@ int main(int argc, char** argv) {
                  "ending in .bag to write a bag (~scene, ~mesh, ~state, ~energy, ~stats)");
   app.add_option("--commands", opt.commands,
                  "re-simulate a recorded run: apply its commands (applied_pin/applied_force, "
-                 "else pin/force) at their stamps, follow its /tf; needs --out FILE.bag");
+                 "else pin/force) at their stamps, follow its /tf; writes --out FILE.bag if given");
   app.add_option("--node", opt.node, "the node whose topics the bags hold (/fem_cloth_node)");
   app.add_flag("--verify", opt.verify,
                "with --commands: exit 4 unless every recorded state is reproduced bit for bit");
@@ -319,184 +537,45 @@ int main(int argc, char** argv) {
     std::cerr << "fem_cloth_sim: --check and --write-scene need --scene (and no --commands)\n";
     return 2;
   }
+  // Before the run, not after it: a --summary-json naming the recording would be refused only
+  // once the replay is done.
+  for (const std::string* out : {&opt.writeScene, &opt.summaryJson}) {
+    if (Status s = out->empty() ? Status::success() : checkNotAnInput(*out, {opt.scene, opt.commands}); !s) {
+      std::cerr << "fem_cloth_sim: " << oneLine(s.error()) << '\n';
+      return 2;
+    }
+  }
   if (!opt.writeScene.empty() || opt.check) {
     if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
   }
   const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
   if (!opt.commands.empty() || bagOut) {
-    if (!bagOut) {
-      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag\n";
+    // Without --out a re-simulation only compares and summarises (--verify): no bag written.
+    if (!bagOut && !opt.out.empty()) {
+      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag (or no --out)\n";
       return 2;
     }
     return runBag(opt, overrides);
   }
-  Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
-  if (!loaded) {
-    std::cerr << "fem_cloth_sim: " << loaded.error() << '\n';
+  return runScene(opt, overrides);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  fem_cloth::preferPassiveThreadWaiting(argv);
+  // Every error is meant to come back as a value with a message; this is the last line of
+  // defence, so that even an unforeseen exception is one line and an exit status, not an abort.
+  try {
+    return run(argc, argv);
+  } catch (const YAML::Exception& e) {
+    std::cerr << "fem_cloth_sim: bad input: " << oneLine(e.what()) << '\n';
     return 2;
-  }
-  const Scene* scene = &loaded->scene;
-  Simulation& sim = loaded->simulation;
-  for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << w << '\n';
-  Simulator& simulator = *sim.simulator;
-  const double dt = scene->dt;
-  const std::uint64_t totalSteps =
-      static_cast<std::uint64_t>(std::llround(std::ceil(scene->duration / dt - 1e-9)));
-  const int every = opt.every > 0 ? opt.every : std::max(1, static_cast<int>(std::lround(1.0 / (60.0 * dt))));
-
-  std::ofstream trajectory, energy;
-  std::string outDir;
-  if (!opt.noOutput) {
-    outDir = opt.out.empty() ? "fem_cloth_output/" + scene->name : opt.out;
-    std::error_code ec;
-    std::filesystem::create_directories(outDir, ec);
-    if (ec) {
-      std::cerr << "fem_cloth_sim: cannot create output folder '" << outDir << "': " << ec.message() << '\n';
-      return 2;
-    }
-    trajectory.open(outDir + "/trajectory.csv");
-    energy.open(outDir + "/energy.csv");
-    if (!trajectory || !energy) {
-      std::cerr << "fem_cloth_sim: cannot write to '" << outDir << "'\n";
-      return 2;
-    }
-    trajectory << "time,step";
-    const char* axes = "xyz";
-    for (Index i = 0; i < simulator.model().numVertices(); ++i) {
-      for (int k = 0; k < simulator.dim(); ++k) trajectory << ',' << axes[k] << i;
-    }
-    trajectory << '\n';
-    energy << "time,step,kinetic,strain,bending,gravity,external_work,pin_work,dissipated,total,"
-              "balance_error,mean_stretch,max_stretch,min_area_ratio,substeps,newton_iterations,"
-              "residual,backtracks,rollbacks\n";
-  }
-
-  const EdgeStretchMeter stretchMeter(*sim.mesh);
-  const EnergyReport initialEnergy = simulator.energies();
-  Totals totals;
-  auto observe = [&](bool write) {
-    const EdgeStretch st = stretchMeter.measure(simulator.state().x);
-    const double minJ = minAreaRatio(simulator.model().mesh(), simulator.model().rest(), simulator.state().x);
-    totals.minAreaRatio = std::min(totals.minAreaRatio, minJ);
-    totals.maxStretch = std::max(totals.maxStretch, st.max);
-    if (write && !opt.noOutput) {
-      writeFrame(trajectory, simulator);
-      writeEnergy(energy, simulator, st, minJ);
-    }
-  };
-  observe(true);
-
-  std::string failure;
-  Progress progress(scene->duration, !opt.quiet);
-  const auto wallStart = std::chrono::steady_clock::now();
-  for (std::uint64_t k = 0; k < totalSteps; ++k) {
-    if (Status s = sim.script.applyDue(simulator); !s) {
-      failure = s.error();
-      break;
-    }
-    const StepReport r = simulator.step();
-    if (!r.ok) {
-      ++totals.failures;
-      totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
-      failure = r.error;
-      break;
-    }
-    ++totals.steps;
-    totals.newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
-    totals.localIterations += static_cast<std::uint64_t>(r.iterations);
-    totals.backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
-    totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
-    totals.substeps += static_cast<std::uint64_t>(r.substeps);
-    totals.maxResidual = std::max(totals.maxResidual, r.residual);
-    const bool write = (k + 1) % static_cast<std::uint64_t>(every) == 0 || k + 1 == totalSteps;
-    observe(write);
-    progress.update(simulator.time(), totals.steps);
-  }
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
-  progress.finish();
-  if (!opt.noOutput && !failure.empty()) observe(true);
-
-  const EnergyReport e = simulator.energies();
-  const EdgeStretch st = stretchMeter.measure(simulator.state().x);
-  std::ostringstream summary;
-  summary << std::setprecision(4);
-  summary << "scene:        " << scene->name << " (" << opt.scene << "), "
-          << simulator.model().numVertices() << " vertices, " << simulator.model().mesh().numTriangles()
-          << " triangles, model " << scene->materialModel << '\n';
-  summary << "integrator:   " << simulator.integrator().name() << ", dt " << dt << " s";
-  // Their iterations are local sweeps (XPBD) or local/global iterations (PD), not Newton's.
-  const bool iteratesLocally = scene->integrator == "xpbd" || scene->integrator == "projective_dynamics";
-  if (iteratesLocally) {
-    summary << ", " << scene->iterations << " iterations";
-  }
-  summary << '\n';
-  summary << "steps:        " << totals.steps << " of " << totalSteps << " (" << totals.substeps
-          << " substeps), simulated " << simulator.time() << " s in " << wall << " s wall"
-          << " (real-time factor " << simulator.time() / std::max(wall, 1e-9) << ")\n";
-  summary << "energy (J):   kinetic " << e.kinetic << ", strain " << e.strain << ", bending "
-          << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
-  summary << "work (J):     external " << e.externalWork << ", pins " << e.pinWork
-          << ", dissipated by damping " << e.dissipated << '\n';
-  if (const ContactModel* contact = simulator.contact()) {
-    // What each obstacle carries at the end (N, in the simulation frame): a table under a
-    // resting cloth carries its weight.
-    const StepReport& last = simulator.lastReport();
-    summary << "contact:      " << last.contacts << " contacts at the end, closest "
-            << last.minContactDistance << " m, work " << e.contactWork << " J";
-    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
-      const Eigen::Vector3d f = contact->wrenches()[k].force;
-      summary << "; '" << contact->obstacle(k).name << "' feels [" << f.x() << ", " << f.y() << ", "
-              << f.z() << "] N";
-    }
-    summary << '\n';
-  }
-  const double energyScale =
-      std::max({std::abs(initialEnergy.total), std::abs(e.gravity), std::abs(e.total), 1e-12});
-  summary << "balance:      error " << e.balanceError << " J (" << 100.0 * e.balanceError / energyScale
-          << " % of the energy scale " << energyScale << " J; numerical dissipation "
-          << e.numericalDissipation << " J, created " << e.created << " J)\n";
-  summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
-          << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
-  summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
-  auto perStep = [&](std::uint64_t count) {
-    return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
-  };
-  if (iteratesLocally) {
-    summary << "solver:       " << totals.localIterations << " "
-            << (scene->integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
-            << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
-            << " substeps, " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
-  } else if (scene->integrator == "symplectic_euler") {
-    summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
-            << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
-  } else {
-    summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
-            << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
-            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks
-            << " rollbacks, " << totals.failures << " failures\n";
-  }
-  if (!opt.noOutput) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
-  std::cout << summary.str();
-  Json outputs = Json::array();
-  if (!opt.noOutput) outputs = {outDir + "/trajectory.csv", outDir + "/energy.csv"};
-  const Json json{{"status", failure.empty() ? "ok" : "failed"},
-                  {"error", failure},
-                  {"scene", scene->name},
-                  {"integrator", simulator.integrator().name()},
-                  {"steps", totals.steps},
-                  {"total_steps", totalSteps},
-                  {"simulated_s", simulator.time()},
-                  {"wall_s", wall},
-                  {"energy", energyJson(e)},
-                  {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
-                  {"min_area_ratio", totals.minAreaRatio},
-                  {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
-                  {"outputs", outputs}};
-  if (!writeSummaryJson(opt.summaryJson, json)) return 2;
-  if (!failure.empty()) {
-    std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: " << failure << '\n';
+  } catch (const std::bad_alloc&) {
+    std::cerr << "fem_cloth_sim: out of memory\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "fem_cloth_sim: internal error: " << oneLine(e.what()) << '\n';
     return 3;
   }
-  return 0;
 }

@@ -15,11 +15,15 @@
 // grasp_vertices (two indices; default: the far edge's corners), start (s of simulation time,
 // 0.05), lift (m, 0.5), approach (fraction of the horizontal way to the pinned vertices, 0.5),
 // duration (s, 2.0), release_others (true), hold (s, 2.5).
+//
+// Exit status: 0 done, 2 bad parameters (the message names the parameter), 3 it could not drive
+// the node (no node, no mesh, an unexpected error): one line on stderr in every case.
 #include <ros/ros.h>
 #include <shape_msgs/Mesh.h>
 #include <tf2_ros/transform_broadcaster.h>
 
 #include <cmath>
+#include <iostream>
 
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/PinCommand.h"
@@ -39,9 +43,12 @@ double ramp(double s) {
   return 0.5 - 0.5 * std::cos(M_PI * s);
 }
 
-}  // namespace
+// A vertex of the state's positions, or none (a grasp or pin vertex the state does not have).
+bool hasVertex(const fem_cloth::ClothState& state, long v) {
+  return v >= 0 && static_cast<std::size_t>(v) < state.positions.size();
+}
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   ros::init(argc, argv, "fem_cloth_grasp_demo");
   ros::NodeHandle nh, pnh("~");
   std::string cloth, frame, parent;
@@ -58,16 +65,21 @@ int main(int argc, char** argv) {
   pnh.param("duration", duration, 2.0);
   pnh.param("hold", hold, 2.5);
   pnh.param("release_others", releaseOthers, true);
-  if (!(duration > 0) || !(start >= 0) || !(hold >= 0)) {
-    ROS_FATAL("fem_cloth_grasp_demo: ~duration must be > 0, ~start and ~hold >= 0");
-    return 1;
+  // Times are simulation times the script waits for: bounded, so that it ends.
+  if (!(duration > 0 && duration <= 1e6) || !(start >= 0 && start <= 1e6) || !(hold >= 0 && hold <= 1e6)) {
+    ROS_FATAL("fem_cloth_grasp_demo: ~duration must be in (0, 1e6] s, ~start and ~hold in [0, 1e6] s");
+    return 2;
+  }
+  if (!(std::abs(lift) <= 1e3) || !(std::abs(approach) <= 1e3)) {
+    ROS_FATAL("fem_cloth_grasp_demo: ~lift (m) and ~approach must be finite and at most 1e3 in size");
+    return 2;
   }
 
   // The mesh tells which vertices to grasp: the two corners of the edge farthest along +y.
   auto mesh = ros::topic::waitForMessage<shape_msgs::Mesh>(cloth + "/mesh", nh, ros::Duration(30));
-  if (!mesh) {
+  if (!mesh || mesh->vertices.empty()) {
     ROS_FATAL_STREAM("fem_cloth_grasp_demo: no mesh on " << cloth << "/mesh");
-    return 1;
+    return 3;
   }
   if (grasp.empty()) {
     double maxY = -1e300;
@@ -83,7 +95,14 @@ int main(int argc, char** argv) {
   }
   if (grasp.size() != 2) {
     ROS_FATAL("fem_cloth_grasp_demo: ~grasp_vertices must list two vertices");
-    return 1;
+    return 2;
+  }
+  for (int v : grasp) {
+    if (v < 0 || static_cast<std::size_t>(v) >= mesh->vertices.size()) {
+      ROS_FATAL_STREAM("fem_cloth_grasp_demo: ~grasp_vertices: vertex " << v << " does not exist (the mesh has "
+                       << mesh->vertices.size() << " vertices)");
+      return 2;
+    }
   }
 
   ros::Publisher pinPub = nh.advertise<fem_cloth::PinCommand>(cloth + "/pin", 10);
@@ -99,7 +118,7 @@ int main(int argc, char** argv) {
   double dt = 0.0;
   if (!nh.getParam(cloth + "/integrator/dt", dt) || !(dt > 0.0)) {
     ROS_FATAL_STREAM("fem_cloth_grasp_demo: no positive " << cloth << "/integrator/dt parameter");
-    return 1;
+    return 3;
   }
   // Give the other listeners (a recorder) a moment, then resume a paused node.
   ros::WallDuration(1.0).sleep();
@@ -109,6 +128,12 @@ int main(int argc, char** argv) {
   while (ros::ok() && !latest) {
     ros::spinOnce();
     ros::WallDuration(0.01).sleep();
+  }
+  if (!latest) return 0;  // shut down while waiting
+  if (!hasVertex(*latest, grasp[0]) || !hasVertex(*latest, grasp[1])) {
+    ROS_FATAL_STREAM("fem_cloth_grasp_demo: the state on " << cloth << "/state has "
+                     << latest->positions.size() << " vertices, not the mesh's " << mesh->vertices.size());
+    return 3;
   }
   // ROS time of simulation time 0, from a state's stamp and its step index.
   const ros::Time t0 = latest->header.stamp - ros::Duration(latest->step * dt);
@@ -125,6 +150,10 @@ int main(int argc, char** argv) {
     const double t = (latest->header.stamp - t0).toSec();
     if (!grasped && t >= start - 0.2) {
       // Place the gripper at the corners' midpoint, broadcast, then grasp.
+      if (!hasVertex(*latest, grasp[0]) || !hasVertex(*latest, grasp[1])) {
+        ROS_FATAL("fem_cloth_grasp_demo: the cloth's state no longer has the grasp vertices");
+        return 3;
+      }
       const auto& a = latest->positions[grasp[0]];
       const auto& b = latest->positions[grasp[1]];
       origin = Vec{0.5 * (a.x + b.x), 0.5 * (a.y + b.y), 0.5 * (a.z + b.z)};
@@ -134,6 +163,7 @@ int main(int argc, char** argv) {
         int count = 0;
         for (std::uint32_t v : pins->vertices) {
           if (static_cast<int>(v) == grasp[0] || static_cast<int>(v) == grasp[1]) continue;
+          if (!hasVertex(*latest, v)) continue;
           centre.x += latest->positions[v].x;
           centre.y += latest->positions[v].y;
           ++count;
@@ -189,4 +219,17 @@ int main(int argc, char** argv) {
   }
   ROS_INFO("fem_cloth_grasp_demo: done");
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Parameters and messages out of range (a stamp or step whose time ros::Duration cannot hold)
+  // end the script with one line, not an abort.
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "fem_cloth_grasp_demo: " << e.what() << '\n';
+    return 3;
+  }
 }

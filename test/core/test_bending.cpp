@@ -20,9 +20,11 @@
 #include <omp.h>
 #endif
 
+#include "bending_test_support.h"
 #include "fem_cloth/core/bending.h"
 
 using namespace fem_cloth;
+using namespace fem_cloth::test;
 
 #include "../allocation_counter.h"
 using fem_cloth::test::allocationCount;
@@ -31,41 +33,6 @@ namespace {
 
 const std::vector<std::string> kModels = {"quadratic", "dihedral"};
 
-struct Cloth {
-  std::shared_ptr<Mesh> mesh;
-  std::shared_ptr<RestState> rest;
-};
-
-Mesh gridMesh(int rows, int cols, double width, double height) {
-  GridSpec spec;
-  spec.rows = rows;
-  spec.cols = cols;
-  spec.width = width;
-  spec.height = height;
-  return *makeGrid(spec);
-}
-
-Cloth withRest(Mesh mesh) {
-  Cloth c;
-  c.mesh = std::make_shared<Mesh>(std::move(mesh));
-  c.rest = std::make_shared<RestState>(*computeRestState(*c.mesh));
-  return c;
-}
-
-std::unique_ptr<EnergyTerm> makeTerm(const Cloth& c, const std::string& model, double k) {
-  auto term = makeBendingTerm(*c.mesh, *c.rest, model, k);
-  EXPECT_TRUE(term.ok()) << (term.ok() ? "" : term.error());
-  return std::move(term).value();
-}
-
-SparseHessian patternFor(const Mesh& mesh, EnergyTerm& term) {
-  std::vector<std::vector<Index>> stencils;
-  term.appendStencils(&stencils);
-  SparseHessian H(mesh.numVertices(), mesh.dim, stencils);
-  term.bindHessian(H);
-  return H;
-}
-
 /// A term with its Hessian pattern built and bound.
 struct BoundTerm {
   std::string model;
@@ -73,154 +40,17 @@ struct BoundTerm {
   SparseHessian hessian;
 };
 
-/// Both models on the cloth, ready to evaluate.
-std::vector<BoundTerm> boundTerms(const Cloth& cloth, double k) {
+/// The models on the cloth, ready to evaluate.
+std::vector<BoundTerm> boundTerms(const Cloth& cloth, double k,
+                                  const std::vector<std::string>& models = bendingModelNames()) {
   std::vector<BoundTerm> terms;
-  for (const std::string& model : kModels) {
+  for (const std::string& model : models) {
     auto term = makeTerm(cloth, model, k);
     SparseHessian H = patternFor(*cloth.mesh, *term);
     terms.push_back({model, std::move(term), std::move(H)});
   }
   return terms;
 }
-
-double energyOf(EnergyTerm& term, const VectorX& x) { return term.evaluate(x, EvalRequest{}).energy; }
-
-VectorX gradientOf(EnergyTerm& term, const VectorX& x) {
-  VectorX g = VectorX::Zero(x.size());
-  EvalRequest request;
-  request.energy = false;
-  request.gradient = &g;
-  term.evaluate(x, request);
-  return g;
-}
-
-Eigen::MatrixXd hessianOf(EnergyTerm& term, SparseHessian& H, const VectorX& x, HessianMode mode) {
-  H.setZero();
-  EvalRequest request;
-  request.energy = false;
-  request.hessian = &H;
-  request.hessianMode = mode;
-  term.evaluate(x, request);
-  return Eigen::MatrixXd(H.matrix());
-}
-
-VectorX randomlyPerturbed(const VectorX& x0, double amount, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(-amount, amount);
-  VectorX x = x0;
-  for (Eigen::Index i = 0; i < x.size(); ++i) x[i] += u(rng);
-  return x;
-}
-
-/// A smooth non-flat shape: z += amplitude * sin(3 x) cos(2 y) on every vertex.
-VectorX wavy(const VectorX& flat, double amplitude) {
-  VectorX x = flat;
-  for (Eigen::Index i = 0; i < x.size() / 3; ++i) {
-    x[3 * i + 2] += amplitude * std::sin(3.0 * flat[3 * i]) * std::cos(2.0 * flat[3 * i + 1]);
-  }
-  return x;
-}
-
-/// A bent state away from the rest shape (hinges turn by up to ~0.5 rad on the small grids):
-/// the wave above plus random noise.
-VectorX bentState(const VectorX& rest, unsigned seed) {
-  return randomlyPerturbed(wavy(rest, 0.15), 0.03, seed);
-}
-
-/// Rolls a sheet lying in the XY plane (z = 0, x >= 0) around an axis parallel to y at height
-/// `radius`: (u, v, 0) -> (R sin(u/R), v, R (1 - cos(u/R))). The map keeps the arc length u,
-/// so it is an isometry of the continuous sheet, with principal curvatures 1/R and 0.
-VectorX rolledIntoCylinder(const VectorX& flat, double radius) {
-  VectorX x = flat;
-  for (Eigen::Index i = 0; i < x.size() / 3; ++i) {
-    const double u = flat[3 * i];
-    x[3 * i] = radius * std::sin(u / radius);
-    x[3 * i + 2] = radius * (1.0 - std::cos(u / radius));
-  }
-  return x;
-}
-
-/// Rows of vertices `spacing` apart, every other row shifted by half a spacing, so that all
-/// triangles are equilateral and the edges run in three directions (0 and +-60 degrees).
-/// Its area is (rows - 1)(cols - 1) spacing * height, height = sqrt(3)/2 spacing.
-Mesh equilateralLattice(int rows, int cols, double spacing) {
-  Mesh mesh;
-  mesh.dim = 3;
-  const double rowHeight = std::sqrt(3.0) / 2.0 * spacing;
-  mesh.restPositions.resize(3 * rows * cols);
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      const int i = r * cols + c;
-      mesh.restPositions.segment<3>(3 * i) << c * spacing + (r % 2) * spacing / 2, r * rowHeight, 0;
-    }
-  }
-  for (int r = 0; r + 1 < rows; ++r) {
-    // The row with the larger shift is the "right" one of each pair.
-    const int low = r * cols, high = (r + 1) * cols;
-    for (int c = 0; c + 1 < cols; ++c) {
-      if (r % 2 == 0) {
-        mesh.triangles.push_back({low + c, low + c + 1, high + c});
-        mesh.triangles.push_back({low + c + 1, high + c + 1, high + c});
-      } else {
-        mesh.triangles.push_back({low + c, high + c + 1, high + c});
-        mesh.triangles.push_back({low + c, low + c + 1, high + c + 1});
-      }
-    }
-  }
-  return mesh;
-}
-
-/// Largest |FD - analytic| over all entries for each step h, relative to 1 + max |analytic|.
-struct FiniteDifferenceErrors {
-  std::vector<double> gradient, hessian;
-};
-
-FiniteDifferenceErrors finiteDifferenceErrors(EnergyTerm& term, SparseHessian& H, const VectorX& x,
-                                              const std::vector<double>& steps) {
-  const VectorX g = gradientOf(term, x);
-  const Eigen::MatrixXd K = hessianOf(term, H, x, HessianMode::Exact);
-  const double gradScale = 1.0 + g.cwiseAbs().maxCoeff();
-  const double hessScale = 1.0 + K.cwiseAbs().maxCoeff();
-  FiniteDifferenceErrors errors;
-  for (double h : steps) {
-    double gradError = 0.0, hessError = 0.0;
-    for (Eigen::Index i = 0; i < x.size(); ++i) {
-      VectorX xp = x, xm = x;
-      xp[i] += h;
-      xm[i] -= h;
-      const double fd = (energyOf(term, xp) - energyOf(term, xm)) / (2 * h);
-      gradError = std::max(gradError, std::abs(fd - g[i]));
-      const VectorX column = (gradientOf(term, xp) - gradientOf(term, xm)) / (2 * h);
-      hessError = std::max(hessError, (column - K.col(i)).cwiseAbs().maxCoeff());
-    }
-    errors.gradient.push_back(gradError / gradScale);
-    errors.hessian.push_back(hessError / hessScale);
-  }
-  return errors;
-}
-
-/// Central differences: the error falls like h^2 until round-off (~ eps / h) takes over.
-void expectConverging(const std::vector<double>& e, const std::string& what) {
-  const double roundOff = 1e-9;
-  EXPECT_LT(*std::min_element(e.begin(), e.end()), 1e-7) << what;
-  for (std::size_t i = 0; i + 2 < e.size(); ++i) {
-    if (e[i] > roundOff) {
-      EXPECT_LT(e[i + 1], 0.05 * e[i]) << what << ": error does not fall like h^2";
-    }
-  }
-}
-
-Eigen::Matrix3d someRotation() {
-  return Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
-}
-
-VectorX rigidlyMoved(const VectorX& x, const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
-  VectorX y(x.size());
-  for (Eigen::Index i = 0; i < x.size() / 3; ++i) y.segment<3>(3 * i) = R * x.segment<3>(3 * i) + t;
-  return y;
-}
-
 
 }  // namespace
 
@@ -340,7 +170,7 @@ TEST_P(BendingDerivatives, MatchCentralDifferences) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Models, BendingDerivatives,
-                         testing::Combine(testing::ValuesIn(kModels), testing::Bool()));
+                         testing::Combine(testing::ValuesIn(bendingModelNames()), testing::Bool()));
 
 TEST(DihedralBending, ProjectedHessianIsPsdWhereTheExactOneIsNot) {
   const Cloth cloth = withRest(gridMesh(4, 5, 0.8, 0.6));
@@ -391,7 +221,7 @@ TEST(Bending, StencilsAreTheHinges) {
 // ---------------------------------------------------------------------------------------------
 
 TEST(Bending, ZeroEnergyAndGradientAtRest) {
-  for (const std::string& model : kModels) {
+  for (const std::string& model : bendingModelNames()) {
     const Cloth cloth = withRest(gridMesh(5, 6, 1.0, 0.8));
     auto term = makeTerm(cloth, model, 3.0);
     const VectorX& x = cloth.mesh->restPositions;
@@ -404,7 +234,7 @@ TEST(Bending, ZeroEnergyAndGradientAtRest) {
 TEST(Bending, InvariantUnderRigidMotion) {
   const Eigen::Matrix3d R = someRotation();
   const Eigen::Vector3d t(0.1, -2.0, 5.0);
-  for (const std::string& model : kModels) {
+  for (const std::string& model : bendingModelNames()) {
     const Cloth cloth = withRest(gridMesh(5, 6, 1.0, 0.8));
     auto term = makeTerm(cloth, model, 3.0);
     const VectorX x = bentState(cloth.mesh->restPositions, 5);
@@ -509,13 +339,12 @@ TEST(DihedralBending, FoldingThroughPiIsContinuous) {
 
 TEST(DihedralBending, KeepsACurvedRestShape) {
   const double radius = 0.7, k = 1.3;
-  Mesh mesh = gridMesh(6, 9, 1.0, 0.5);
-  const VectorX flat = mesh.restPositions;
-  mesh.restPositions = rolledIntoCylinder(flat, radius);
-  const Cloth cloth = withRest(mesh);
+  VectorX flat;
+  const Cloth cloth = rolledGridCloth(6, 9, 1.0, 0.5, radius, &flat);
+  const VectorX& rest = cloth.mesh->restPositions;
   auto dihedral = makeTerm(cloth, "dihedral", k);
-  EXPECT_EQ(energyOf(*dihedral, mesh.restPositions), 0.0);
-  EXPECT_LT(gradientOf(*dihedral, mesh.restPositions).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_EQ(energyOf(*dihedral, rest), 0.0);
+  EXPECT_LT(gradientOf(*dihedral, rest).cwiseAbs().maxCoeff(), 1e-12);
   // Unrolling it costs what rolling the flat sheet costs: every axial hinge turns by a / R.
   const double a = 1.0 / 8, b = 0.5 / 5;
   const double chord = 2 * radius * std::sin(a / (2 * radius));  // rest spacing across
@@ -525,7 +354,7 @@ TEST(DihedralBending, KeepsACurvedRestShape) {
   // the flat sheet has (almost, the rest cotangents are those of the curved hinges) none.
   auto quadratic = makeTerm(cloth, "quadratic", k);
   const double cylinder = 0.5 * k * 1.0 * 0.5 / (radius * radius);
-  EXPECT_GT(energyOf(*quadratic, mesh.restPositions), 0.5 * cylinder);
+  EXPECT_GT(energyOf(*quadratic, rest), 0.5 * cylinder);
   EXPECT_LT(energyOf(*quadratic, flat), 0.01 * cylinder);
 }
 
@@ -643,7 +472,7 @@ TEST(DihedralBending, CollapsedTriangleIsOutOfDomain) {
 
 TEST(BendingFactory, ValidatesItsInputs) {
   const Cloth cloth = withRest(gridMesh(3, 3, 1.0, 1.0));
-  for (const std::string& model : kModels) {
+  for (const std::string& model : bendingModelNames()) {
     auto none = makeBendingTerm(*cloth.mesh, *cloth.rest, model, 0.0);
     ASSERT_TRUE(none.ok());
     EXPECT_EQ(none.value(), nullptr) << "zero stiffness: not assembled at all";
@@ -661,7 +490,7 @@ TEST(BendingFactory, ValidatesItsInputs) {
   EXPECT_FALSE(infinite.ok());
   auto unknown = makeBendingTerm(*cloth.mesh, *cloth.rest, "kirchhoff", 1.0);
   ASSERT_FALSE(unknown.ok());
-  for (const char* word : {"kirchhoff", "quadratic", "dihedral"}) {
+  for (const char* word : {"kirchhoff", "midedge", "quadratic", "dihedral"}) {
     EXPECT_NE(unknown.error().find(word), std::string::npos) << unknown.error();
   }
   GridSpec planarSpec;

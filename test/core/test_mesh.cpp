@@ -168,7 +168,8 @@ TEST(Validation, NamesTheCulprit) {
   EXPECT_TRUE(anyContains(report.errors, "triangle 3 (0, 0, 2): repeats a vertex"));
   // Vertices 0, 1, 3 are collinear: zero area.
   EXPECT_TRUE(anyContains(report.errors, "triangle 4 (0, 1, 3): degenerate"));
-  EXPECT_TRUE(anyContains(report.warnings, "1 vertices belong to no triangle"));
+  // Vertex 4 is in no triangle: it would have no mass, an error naming it (and its OBJ number).
+  EXPECT_TRUE(anyContains(report.errors, "vertex 4 (number 5 in an OBJ file) belongs to no triangle"));
   EXPECT_NE(report.errorSummary().find("triangle 1"), std::string::npos);
 }
 

@@ -18,8 +18,8 @@ using namespace fem_cloth::report;
 namespace {
 
 const AccuracyScene& scene(const std::string& name) {
-  static const std::vector<AccuracyScene> small = *accuracyScenes(FEM_CLOTH_CONFIG_DIR, "", true);
-  static const std::vector<AccuracyScene> full = *accuracyScenes(FEM_CLOTH_CONFIG_DIR, "", false);
+  static const std::vector<AccuracyScene> small = *accuracyScenes(FEM_CLOTH_CONFIG_DIR, nullptr, true);
+  static const std::vector<AccuracyScene> full = *accuracyScenes(FEM_CLOTH_CONFIG_DIR, nullptr, false);
   for (const auto* list : {&small, &full}) {
     for (const AccuracyScene& s : *list) {
       if (s.name == name) return s;

@@ -12,6 +12,8 @@
 #include "fem_cloth/report/cases.h"
 #include "fem_cloth/report/run.h"
 #include "fem_cloth/report/stability.h"
+#include "fem_cloth/ros/bag_io.h"
+#include "fem_cloth/ros/bag_replay.h"
 
 using namespace fem_cloth;
 using namespace fem_cloth::report;
@@ -154,7 +156,9 @@ TEST(RunScene, RecordedGraspIsReappliedExactly) {
   const RecordedState& last = run->states.back();
   RunRequest request;
   request.scene = scene;
-  request.commands = std::make_shared<const RecordedRun>(*run);
+  Expected<std::shared_ptr<const Recording>> recording = readRecording(FEM_CLOTH_GRASP_BAG);
+  ASSERT_TRUE(recording.ok()) << recording.error();
+  request.commands = *recording;
   request.recordedDt = dt;
   request.duration = static_cast<double>(last.step) * dt;
   const RunResult r = runScene(request);

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../run_program.h"
 #include "../temp_dir.h"
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/io/scene_yaml.h"
@@ -83,7 +84,7 @@ SimulationDriver makeDriver(const tf2::BufferCore* tf) {
   const Scene scene = *parseScene(YAML::Load(kScene));
   DriverSettings settings;
   settings.epoch = kEpoch;
-  return SimulationDriver(std::move(buildSimulation(scene).value()), scene, settings, tf);
+  return SimulationDriver(std::move(buildSimulation(scene).value()), settings, tf, YAML::Load(kScene));
 }
 
 struct Recorded {
@@ -94,18 +95,20 @@ struct Recorded {
 // Drives the run in process, as the node does (commands submitted ahead of their stamps, tf
 // known ahead), and writes it the way record.launch records it; `appliedTopics` false writes
 // the commands as sent (zero stamps) instead, at the bag times given.
-Recorded recordRun(const std::string& path, int steps, bool appliedTopics = true) {
+Recorded recordRun(const std::string& path, int steps, bool appliedTopics = true,
+                   const std::vector<Command>& more = {}) {
   tf2::BufferCore tf(ros::Duration(100.0));
   for (int k = 0; k <= 130; ++k) tf.setTransform(gripperAt(0.01 * k), "test");
   SimulationDriver driver = makeDriver(&tf);
   for (const PinCommand& c : pinCommands()) EXPECT_TRUE(driver.submit(c).ok());
   EXPECT_TRUE(driver.submit(pushCommand()).ok());
+  for (const Command& c : more) EXPECT_TRUE(driver.submit(c).ok());
 
   rosbag::Bag bag(path, rosbag::bagmode::Write);
   std_msgs::String scene;
   scene.data = kScene;
   bag.write(kTopics.scene, kEpoch, scene);
-  bag.write(kTopics.mesh, kEpoch, driver.meshMessage());
+  bag.write(kTopics.mesh, kEpoch, toMsg(driver.simulator().model().mesh()));
   for (int k = 0; k <= 130; ++k) {
     tf2_msgs::TFMessage m;
     m.transforms.push_back(gripperAt(0.01 * k));
@@ -125,7 +128,7 @@ Recorded recordRun(const std::string& path, int steps, bool appliedTopics = true
   }
   Recorded rec;
   auto record = [&]() {
-    const ClothState s = driver.stateMessage();
+    const ClothState s = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), false);
     rec.hashes[s.step] = s.state_hash;
     bag.write(kTopics.state, s.header.stamp, s);
   };
@@ -134,11 +137,9 @@ Recorded recordRun(const std::string& path, int steps, bool appliedTopics = true
     const StepReport r = driver.step();
     EXPECT_TRUE(r.ok) << r.error;
     EXPECT_TRUE(driver.takeWarnings().empty());
-    for (const PinCommand& c : driver.takeAppliedPins()) {
-      if (appliedTopics) bag.write(kTopics.appliedPin, c.header.stamp, c);
-    }
-    for (const ForceCommand& c : driver.takeAppliedForces()) {
-      if (appliedTopics) bag.write(kTopics.appliedForce, c.header.stamp, c);
+    for (const Command& c : driver.takeApplied()) {
+      if (!appliedTopics) continue;
+      std::visit([&](const auto& m) { bag.write(kTopics.applied(topicOf(c)), m.header.stamp, m); }, c);
     }
     if (driver.stepIndex() % 3 == 0) record();
   }
@@ -157,8 +158,13 @@ std::map<std::uint64_t, std::string> statesOf(const std::string& path) {
   return out;
 }
 
+// Neither the output nor a temporary file of it (out.partial-XXXXXX) in its folder.
 bool leftNothing(const std::string& out) {
-  return !fs::exists(out) && !fs::exists(out + ".partial");
+  const fs::path path(out);
+  for (const auto& e : fs::directory_iterator(path.parent_path())) {
+    if (e.path().filename().string().rfind(path.filename().string(), 0) == 0) return false;
+  }
+  return true;
 }
 
 BagRunOptions quiet() {
@@ -169,14 +175,68 @@ BagRunOptions quiet() {
 
 }  // namespace
 
+// Live changes (~set: a stiffer cloth under other gravity; an obstacle added under it) recorded
+// as applied are re-applied offline at the same steps: the replay reproduces every recorded
+// state bit for bit, and the changes did change the run.
+TEST(BagReplay, LiveChangesReplayBitForBit) {
+  test::TempDir dir("fem_cloth_bag_replay_live");
+  SetCommand set;
+  set.header.stamp = kEpoch + ros::Duration(0.2);
+  set.pairs = {"material.youngs_modulus=4.0e6", "gravity=[0, 0, -5]"};
+  ObstacleCommand ball;
+  ball.header.stamp = kEpoch + ros::Duration(0.4);
+  ball.action = ObstacleCommand::ADD;
+  ball.name = "ball";
+  ball.entry = "{type: sphere, center: [0.3, 0.3, -0.3], radius: 0.1}";
+  const Recorded plain = recordRun(dir.path("plain.bag"), 90);
+  const Recorded live = recordRun(dir.path("live.bag"), 90, true, {set, ball});
+  EXPECT_NE(live.finalHash, plain.finalHash) << "the live changes changed nothing";
+  Expected<BagRunReport> r = runToBag(dir.path("live.bag"), dir.path("replay.bag"), quiet());
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_EQ(r->commands[static_cast<std::size_t>(CommandTopic::Set)], 1u);
+  EXPECT_EQ(r->commands[static_cast<std::size_t>(CommandTopic::Obstacle)], 1u);
+  EXPECT_EQ(r->rejected, 0u);
+  EXPECT_EQ(r->compared, 31u);
+  EXPECT_EQ(r->identical, r->compared);
+  EXPECT_EQ(r->finalHash, live.finalHash);
+  // The replay's own record holds them as applied, at their steps.
+  rosbag::Bag bag(dir.path("replay.bag"));
+  int sets = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(kTopics.applied(CommandTopic::Set)))) {
+    EXPECT_EQ(m.instantiate<SetCommand>()->header.stamp, kEpoch + ros::Duration(0.2));
+    ++sets;
+  }
+  EXPECT_EQ(sets, 1);
+}
+
+// A bad pair is refused when submitted, naming it, and nothing of the command is applied.
+TEST(BagReplay, BadLiveChangeIsRefusedWhole) {
+  tf2::BufferCore tf(ros::Duration(100.0));
+  SimulationDriver driver = makeDriver(&tf);
+  SetCommand set;
+  set.pairs = {"damping.mass=2", "material.poisson_ratio=0.7"};
+  const Status s = driver.submit(set);
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().find("material.poisson_ratio"), std::string::npos) << s.error();
+  ObstacleCommand gone;
+  gone.action = ObstacleCommand::REMOVE;
+  gone.name = "nothing";
+  const Status g = driver.submit(gone);
+  ASSERT_FALSE(g.ok());
+  EXPECT_NE(g.error().find("there is no obstacle named 'nothing'"), std::string::npos) << g.error();
+  ASSERT_TRUE(driver.step().ok);
+  EXPECT_EQ(driver.document()["damping"]["mass"].as<double>(), 0.5);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Set).rejected, 1u);
+}
+
 TEST(BagReplay, OfflineReplayReproducesTheRecordedRun) {
   test::TempDir dir("fem_cloth_bag_replay");
   const Recorded rec = recordRun(dir.path("run.bag"), 99);
   Expected<BagRunReport> r = runToBag(dir.path("run.bag"), dir.path("replay.bag"), quiet());
   ASSERT_TRUE(r.ok()) << r.error();
   EXPECT_TRUE(r->exactCommands);
-  EXPECT_EQ(r->pinCommands, 2u);
-  EXPECT_EQ(r->forceCommands, 1u);
+  EXPECT_EQ(r->commands[static_cast<std::size_t>(CommandTopic::Pin)], 2u);
+  EXPECT_EQ(r->commands[static_cast<std::size_t>(CommandTopic::Force)], 1u);
   EXPECT_EQ(r->rejected, 0u);
   // 99 steps, a state every 3: steps 0, 3, ..., 99.
   EXPECT_EQ(r->steps, 99u);
@@ -317,4 +377,41 @@ TEST(BagReplay, ASceneAloneRunsIntoABag) {
   const auto states = statesOf(dir.path("scene.bag"));
   EXPECT_EQ(states.size(), 18u);
   EXPECT_EQ(states.rbegin()->first, 50u);
+}
+
+// A simulation that fails is not bad input: runToBag reports it (failure, the steps taken), and
+// writes no bag (fem_cloth_sim exits 3, not 2, from this rather than from the error's text).
+TEST(BagReplay, ASimulationThatFailsIsAReportAndLeavesNoBag) {
+  test::TempDir dir("fem_cloth_bag_replay");
+  recordRun(dir.path("run.bag"), 30);
+  BagRunOptions o = quiet();
+  // Symplectic Euler told not to substep, far beyond its stability bound.
+  o.overrides = {"integrator.auto_substep=false", "integrator.dt=1"};
+  o.duration = 3.0;
+  Expected<BagRunReport> r = runToBag(dir.path("run.bag"), dir.path("out.bag"), o);
+  ASSERT_TRUE(r.ok()) << r.error();
+  EXPECT_NE(r->failure.find("the simulation failed at step 1"), std::string::npos) << r->failure;
+  EXPECT_NE(r->failure.find("CFL bound"), std::string::npos) << r->failure;
+  EXPECT_EQ(r->steps, 0u);
+  EXPECT_TRUE(leftNothing(dir.path("out.bag")));
+  // A run that succeeds has no failure.
+  Expected<BagRunReport> ok = runToBag(dir.path("run.bag"), dir.path("ok.bag"), quiet());
+  ASSERT_TRUE(ok.ok()) << ok.error();
+  EXPECT_TRUE(ok->failure.empty());
+}
+
+// The output is never one of the inputs: the recording stays as it was.
+TEST(BagReplay, TheOutputIsNeverTheInput) {
+  test::TempDir dir("fem_cloth_bag_replay");
+  const Recorded rec = recordRun(dir.path("run.bag"), 30);
+  Expected<BagRunReport> r = runToBag(dir.path("run.bag"), dir.path("run.bag"), quiet());
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("is the input"), std::string::npos) << r.error();
+  EXPECT_EQ(statesOf(dir.path("run.bag")), rec.hashes);
+  BagRunOptions o = quiet();
+  o.sceneFile = dir.write("scene.bag", kScene);
+  r = runToBag(dir.path("run.bag"), o.sceneFile, o);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.error().find("scene.bag"), std::string::npos) << r.error();
+  EXPECT_EQ(test::readTextFile(o.sceneFile), kScene);
 }

@@ -46,7 +46,7 @@ DriverSettings defaultSettings() {
 
 SimulationDriver makeDriver(const tf2::BufferCore* tf, DriverSettings settings = defaultSettings()) {
   const Scene scene = *parseScene(YAML::Load(kScene));
-  return SimulationDriver(std::move(buildSimulation(scene).value()), scene, settings, tf);
+  return SimulationDriver(std::move(buildSimulation(scene).value()), settings, tf);
 }
 
 // The first tests pin vertex 12 to the gripper's origin, 1.8 m from it: not a jump under test.
@@ -85,6 +85,29 @@ TEST(Frames, APinFollowsItsFrameExactlyWhereTfCanInterpolate) {
   std::string missing;
   EXPECT_FALSE(driver.transformsReady(&missing));
   EXPECT_NE(missing.find("gripper"), std::string::npos) << missing;
+}
+
+// tf is asked once per frame and time: a step with a pin following the gripper needs the
+// gripper at one new time (the step's end; its start was the last step's end), which costs the
+// newest-transform lookup and the exact one; the wait check before the step, the pin, and the
+// grasp wrench after it take it from there.
+TEST(Frames, EachStepLooksUpAFollowedFrameOnceAtItsOneNewTime) {
+  tf2::BufferCore tf(ros::Duration(100.0));
+  for (int k = 0; k <= 50; ++k) tf.setTransform(gripperAt(0.01 * k), "test");
+  SimulationDriver driver = makeGripperDriver(&tf);
+  ASSERT_TRUE(driver.submit(pinInGripper(12)).ok());
+  ASSERT_TRUE(driver.step().ok);
+  const VectorX reactions = driver.simulator().pinReactions();
+  ASSERT_EQ(driver.graspWrenches(reactions).size(), 2u);  // the gripper's, and the fixed pins'
+  for (int k = 2; k <= 10; ++k) {
+    const std::uint64_t before = driver.frames().lookups();
+    std::string missing;
+    ASSERT_TRUE(driver.transformsReady(&missing)) << missing;
+    ASSERT_TRUE(driver.step().ok);
+    ASSERT_EQ(driver.graspWrenches(driver.simulator().pinReactions()).size(), 2u);
+    EXPECT_EQ(driver.frames().lookups() - before, 2u) << "step " << k;
+    EXPECT_EQ(driver.simulator().pinTarget(12), Eigen::Vector3d(2.0, 0.0, 0.01 * k)) << k;
+  }
 }
 
 TEST(Frames, BeforeItsFirstTransformAFrameIsServedTheNearestWithoutWaiting) {

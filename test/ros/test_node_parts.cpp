@@ -30,8 +30,10 @@ ForceCommand forceNumbered(std::uint32_t vertex) {
   return c;
 }
 
+// The first vertex of a pin or force command (the only kinds these tests queue).
 std::uint32_t vertexOf(const Command& c) {
-  return std::visit([](const auto& command) { return command.vertices.at(0); }, c);
+  if (const PinCommand* pin = std::get_if<PinCommand>(&c)) return pin->vertices.at(0);
+  return std::get<ForceCommand>(c).vertices.at(0);
 }
 
 }  // namespace

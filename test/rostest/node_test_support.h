@@ -13,14 +13,85 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "fem_cloth/ClothEnergy.h"
 #include "fem_cloth/ClothState.h"
+#include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/PinCommand.h"
 
 namespace fem_cloth_test {
 
 constexpr const char* kNode = "/fem_cloth_node";
 inline std::string topic(const std::string& name) { return std::string(kNode) + "/" + name; }
+
+// --- Commands and frames as the tests send them -------------------------------------------------
+
+inline geometry_msgs::Point point(double x, double y, double z) {
+  geometry_msgs::Point p;
+  p.x = x;
+  p.y = y;
+  p.z = z;
+  return p;
+}
+
+/// PIN_AT_TARGETS in `frame` (zero stamp: before the next step unless `stamp` is given).
+inline fem_cloth::PinCommand pinAt(const std::string& frame, const std::vector<std::uint32_t>& vertices,
+                                   const std::vector<geometry_msgs::Point>& targets,
+                                   const ros::Time& stamp = ros::Time()) {
+  fem_cloth::PinCommand c;
+  c.header.frame_id = frame;
+  c.header.stamp = stamp;
+  c.action = fem_cloth::PinCommand::PIN_AT_TARGETS;
+  c.vertices = vertices;
+  c.targets = targets;
+  return c;
+}
+
+inline fem_cloth::PinCommand pinInPlace(const std::string& frame, const std::vector<std::uint32_t>& vertices) {
+  fem_cloth::PinCommand c;
+  c.header.frame_id = frame;
+  c.action = fem_cloth::PinCommand::PIN_IN_PLACE;
+  c.vertices = vertices;
+  return c;
+}
+
+inline fem_cloth::PinCommand release(const std::vector<std::uint32_t>& vertices) {
+  fem_cloth::PinCommand c;
+  c.action = fem_cloth::PinCommand::RELEASE;
+  c.vertices = vertices;
+  return c;
+}
+
+/// APPLY one force on every vertex listed, for `duration` s.
+inline fem_cloth::ForceCommand push(const std::string& frame, const std::vector<std::uint32_t>& vertices,
+                                    double fx, double fy, double fz, double duration) {
+  fem_cloth::ForceCommand c;
+  c.header.frame_id = frame;
+  c.action = fem_cloth::ForceCommand::APPLY;
+  c.vertices = vertices;
+  geometry_msgs::Vector3 f;
+  f.x = fx;
+  f.y = fy;
+  f.z = fz;
+  c.forces = {f};
+  c.duration = duration;
+  return c;
+}
+
+/// `child` at (x, y, z) in `parent`, unrotated, at `stamp`.
+inline geometry_msgs::TransformStamped frameAt(const std::string& parent, const std::string& child,
+                                               const ros::Time& stamp, double x, double y, double z) {
+  geometry_msgs::TransformStamped tf;
+  tf.header.stamp = stamp;
+  tf.header.frame_id = parent;
+  tf.child_frame_id = child;
+  tf.transform.translation.x = x;
+  tf.transform.translation.y = y;
+  tf.transform.translation.z = z;
+  tf.transform.rotation.w = 1.0;
+  return tf;
+}
 
 /// Subscribes to a topic and keeps the latest message; waits until a predicate holds.
 template <class M>

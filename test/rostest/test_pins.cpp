@@ -14,16 +14,8 @@ TEST(Pins, HoldsVertexExactlyAtTarget) {
   ASSERT_TRUE(waitForConnection(pub));
   Latest<fem_cloth::ClothState> state(topic("state"));
   ASSERT_TRUE(state.waitForAny());
-  fem_cloth::PinCommand c;
-  c.header.frame_id = "world";
-  c.action = fem_cloth::PinCommand::PIN_AT_TARGETS;
-  c.vertices = {40};
-  geometry_msgs::Point target;
-  target.x = 0.5;
-  target.y = 0.25;
-  target.z = -0.125;
-  c.targets = {target};
-  pub.publish(c);
+  const geometry_msgs::Point target = point(0.5, 0.25, -0.125);
+  pub.publish(pinAt("world", {40}, {target}));
   auto at = state.waitFor([&](const fem_cloth::ClothState& s) {
     return s.positions[40].x == target.x && s.positions[40].y == target.y &&
            s.positions[40].z == target.z;
@@ -58,16 +50,8 @@ TEST(Pins, FollowsAFrameMovedByTf) {
   ASSERT_TRUE(waitForConnection(tfPub));
   TfBroadcaster broadcaster(tfPub, [&] {
     const ros::Time stamp = ros::Time::now() + ros::Duration(0.2);
-    geometry_msgs::TransformStamped tf;
-    tf.header.stamp = stamp;
-    tf.header.frame_id = "world";
-    tf.child_frame_id = "gripper";
     const tf2::Vector3 p = gripperAt(stamp);
-    tf.transform.translation.x = p.x();
-    tf.transform.translation.y = p.y();
-    tf.transform.translation.z = p.z();
-    tf.transform.rotation.w = 1.0;
-    return tf;
+    return frameAt("world", "gripper", stamp, p.x(), p.y(), p.z());
   });
   // Stamp the command 0.3 s ahead: the node applies it at that simulation time, which its tf
   // buffer covers exactly (a command stamped before the frame's first transform would be
@@ -76,15 +60,8 @@ TEST(Pins, FollowsAFrameMovedByTf) {
 
   // Vertex 4 (middle of the pinned edge, at x = 0.5) held 0.1 m beside and 0.1 m below the
   // gripper from the command's stamp on.
-  fem_cloth::PinCommand c;
-  c.header.frame_id = "gripper";
-  c.header.stamp = ros::Time::now() + ros::Duration(0.3);
-  c.action = fem_cloth::PinCommand::PIN_AT_TARGETS;
-  c.vertices = {4};
-  geometry_msgs::Point local;
-  local.x = 0.1;
-  local.z = -0.1;
-  c.targets = {local};
+  const geometry_msgs::Point local = point(0.1, 0.0, -0.1);
+  const fem_cloth::PinCommand c = pinAt("gripper", {4}, {local}, ros::Time::now() + ros::Duration(0.3));
   pub.publish(c);
 
   Latest<fem_cloth::ClothState> state(topic("state"));

@@ -79,15 +79,7 @@ TEST(RecordReplay, OfflineReplayOfARecordingIsExact) {
     while (!stop && ros::ok()) {
       const ros::Time stamp = ros::Time::now() + ros::Duration(0.2);
       const double s = std::min(std::max((stamp.toSec() - liftStart) / 2.0, 0.0), 1.0);
-      geometry_msgs::TransformStamped tf;
-      tf.header.stamp = stamp;
-      tf.header.frame_id = "world";
-      tf.child_frame_id = "gripper";
-      tf.transform.translation.x = 0.5;
-      tf.transform.translation.y = 1.0;
-      tf.transform.translation.z = 0.4 * s;
-      tf.transform.rotation.w = 1.0;
-      br.sendTransform(tf);
+      br.sendTransform(frameAt("world", "gripper", stamp, 0.5, 1.0, 0.4 * s));
       ros::WallDuration(0.01).sleep();
     }
   });
@@ -104,27 +96,12 @@ TEST(RecordReplay, OfflineReplayOfARecordingIsExact) {
   ros::WallDuration(1.5).sleep();
 
   // Grasp the far corners (row 8 of the 9 x 9 grid) where they are, in the gripper frame.
-  fem_cloth::PinCommand grasp;
-  grasp.header.frame_id = "gripper";
-  grasp.action = fem_cloth::PinCommand::PIN_IN_PLACE;
-  grasp.vertices = {72, 80};
-  pins.publish(grasp);
+  pins.publish(pinInPlace("gripper", {72, 80}));
   liftStart = ros::Time::now().toSec() + 0.3;
   ros::WallDuration(0.8).sleep();
-  fem_cloth::ForceCommand push;
-  push.header.frame_id = "world";
-  push.action = fem_cloth::ForceCommand::APPLY;
-  push.vertices = {40};
-  geometry_msgs::Vector3 f;
-  f.y = 0.3;
-  push.forces = {f};
-  push.duration = 0.5;
-  forces.publish(push);
+  forces.publish(push("world", {40}, 0.0, 0.3, 0.0, 0.5));
   ros::WallDuration(0.8).sleep();
-  fem_cloth::PinCommand release;
-  release.action = fem_cloth::PinCommand::RELEASE;
-  release.vertices = {0, 8};
-  pins.publish(release);
+  pins.publish(release({0, 8}));
   ros::WallDuration(1.2).sleep();
   recorder.stop();
   stop = true;

@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
@@ -266,6 +268,29 @@ TEST(PendingCap, FutureCommandsBeyondTheCapAreRefusedNamingItAndResetDiscardsThe
   EXPECT_EQ(after->force_commands.discarded, before->force_commands.discarded + 200);
   const fem_cloth::CommandStats& n = after->force_commands;
   EXPECT_EQ(n.received, n.rejected + n.applied + n.pending + n.discarded);
+}
+
+// ~reset restarts the window the real-time factor is measured over (issue 15, item 6): a window
+// across a reset measured (simulation time after it - simulation time before) / wall time, which
+// is negative once the run had gone on longer than the window lasts after the reset.
+TEST(RealTimeFactor, IsNeverNegativeAfterAReset) {
+  Latest<fem_cloth::StepStats> stats(topic("stats"));
+  ASSERT_TRUE(stats.waitFor([](const fem_cloth::StepStats& s) { return s.step >= 200; }));  // 2 s on
+  std::mutex mutex;
+  double lowest = std::numeric_limits<double>::infinity();
+  std::size_t seen = 0;
+  Latest<fem_cloth::StepStats> after(topic("stats"), [&](const fem_cloth::StepStats& s) {
+    std::lock_guard<std::mutex> lock(mutex);
+    lowest = std::min(lowest, s.real_time_factor);
+    ++seen;
+  });
+  ASSERT_TRUE(after.waitConnected());
+  ASSERT_TRUE(call("reset"));
+  // Two windows of about a second each, and the one the reset cut short.
+  after.waitFor([](const fem_cloth::StepStats&) { return false; }, 3.0);
+  std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_GT(seen, 10u);
+  EXPECT_GE(lowest, 0.0);
 }
 
 TEST(Advance, AnEndlessAdvanceLetsCommandsThroughAndYieldsToPauseAndReset) {

@@ -3,10 +3,16 @@
 // and failing simulations (0 success, 2 bad scene or command line, 3 the simulation failed).
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <signal.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <thread>
 #include <fstream>
 #include <sstream>
 
@@ -36,9 +42,10 @@ std::vector<std::string> lines(const std::string& text) {
 
 using Result = fem_cloth::test::ProgramResult;
 
-/// Runs the program with the arguments (single-quoted for the shell).
+/// Runs the program with the arguments (single-quoted for the shell), killed after 120 s (a
+/// read that never ends must fail the test, not hang it).
 Result runSim(const std::vector<std::string>& args) {
-  return fem_cloth::test::runProgram(kProgram, args, scratch());
+  return fem_cloth::test::runProgramWithin(120, kProgram, args, scratch());
 }
 
 /// Exit 2 and a single stderr line "fem_cloth_sim: ..." naming every word in `mentions`.
@@ -171,4 +178,143 @@ TEST(FemClothSim, FailingSimulationsExit3) {
     EXPECT_NE(r.out.find("steps:"), std::string::npos) << "the summary is still printed";
     EXPECT_NE(r.out.find("1 failures"), std::string::npos) << r.out;
   }
+}
+
+// Inputs that used to abort the program (an uncaught exception: SIGABRT, status 134) or read
+// forever: one line naming the culprit, status 2.
+TEST(FemClothSim, InputsThatUsedToCrashAreOneLineAndStatus2) {
+  const std::string hanging = kConfigDir + "/hanging_cloth.yaml";
+  const std::string base = "mesh: {rows: 3, cols: 3}\nmaterial: {youngs_modulus: 1e6, poisson_ratio: 0.3}\n";
+  expectUsageError({"--scene", scratch().write("sequence_key.yaml", "? [a, b]\n: 1\n" + base)},
+                   {"sequence_key.yaml", "a key of 'scene' is a list"});
+  expectUsageError({"--scene", scratch().write("map_value.yaml", base + "duration: {a: 1}\n")},
+                   {"duration", "a map"});
+  std::filesystem::create_directories(scratch().path("folder.yaml"));
+  expectUsageError({"--scene", scratch().path("folder.yaml")}, {"folder.yaml", "is a directory"});
+  expectUsageError({"--scene", scratch().write("zero_obj.yaml", "mesh: {type: obj, file: /dev/zero}\n"
+                                                                "material: {youngs_modulus: 1e6, poisson_ratio: 0.3}\n")},
+                   {"mesh.file", "/dev/zero", "not a regular file"});
+  expectUsageError({"--scene", hanging, "--set", "mesh.rows=1e9"}, {"mesh.rows", "1000000000"});
+  expectUsageError({"--scene", hanging, "--set", "mesh.rows=100000", "--set", "mesh.cols=100000"},
+                   {"mesh.rows x mesh.cols", "10000000000 vertices"});
+  expectUsageError({"--scene", scratch().write("null_rows.yaml", "mesh: {rows: ~, cols: 3}\n"
+                                                                "material: {youngs_modulus: 1e6, poisson_ratio: 0.3}\n")},
+                   {"null_rows.yaml", "mesh.rows", "no value"});
+  expectUsageError({"--scene", hanging, "--set", "damping.mass=1e300"}, {"damping.mass", "1e+300"});
+  expectUsageError({"--scene", hanging, "--duration", "1e7"}, {"duration", "1000000000 steps"});
+  expectUsageError({"--scene", hanging, "--set", "name=../../x"}, {"name", "../../x", "one word"});
+}
+
+// An output that is one of the inputs is refused, and the input is left as it was (--commands
+// X.bag --out X.bag used to overwrite the recording).
+TEST(FemClothSim, AnOutputIsNeverAnInput) {
+  const std::string scene = kConfigDir + "/seed_triangle.yaml";
+  // A scene kept as trajectory.csv in the output folder.
+  const std::string folder = scratch().path("inputs_here");
+  std::filesystem::create_directories(folder);
+  std::filesystem::copy_file(scene, folder + "/trajectory.csv");
+  expectUsageError({"--scene", folder + "/trajectory.csv", "--out", folder, "--duration", "0.02"},
+                   {"the output", "trajectory.csv", "is the input"});
+  EXPECT_EQ(readFile(folder + "/trajectory.csv"), readFile(scene));
+  // A bag re-simulated onto itself, or onto a hard link to it.
+  const std::string bag = scratch().path("self.bag");
+  ASSERT_EQ(runSim({"--scene", scene, "--duration", "0.05", "--out", bag, "-q"}).status, 0);
+  const std::string before = readFile(bag);
+  expectUsageError({"--commands", bag, "--out", bag, "-q"}, {"the output", "self.bag", "is the input"});
+  const std::string link = scratch().path("link.bag");
+  std::filesystem::create_hard_link(bag, link);
+  expectUsageError({"--commands", bag, "--out", link, "-q"}, {"link.bag", "is the input"});
+  // The scene file as the output bag.
+  const std::string sceneBag = scratch().path("scene_as.bag");
+  std::filesystem::copy_file(scene, sceneBag);
+  expectUsageError({"--scene", sceneBag, "--out", sceneBag, "-q"}, {"scene_as.bag", "is the input"});
+  EXPECT_EQ(readFile(bag), before);
+  EXPECT_EQ(readFile(sceneBag), readFile(scene));
+  // The small outputs for programs: --write-scene onto the scene (it would drop its comments),
+  // --summary-json onto the scene or the recording.
+  const std::string copy = scratch().path("scene_copy.yaml");
+  std::filesystem::copy_file(scene, copy);
+  expectUsageError({"--scene", copy, "--set", "integrator.dt=0.005", "--write-scene", copy},
+                   {"the output", "scene_copy.yaml", "is the input"});
+  expectUsageError({"--scene", copy, "--duration", "0.02", "--no-output", "-q", "--summary-json", copy},
+                   {"scene_copy.yaml", "is the input"});
+  expectUsageError({"--commands", bag, "--out", scratch().path("other.bag"), "-q", "--summary-json", bag},
+                   {"self.bag", "is the input"});
+  EXPECT_EQ(readFile(copy), readFile(scene));
+  EXPECT_EQ(readFile(bag), before);
+}
+
+namespace {
+
+// The files in `folder` whose names start with `prefix`.
+std::vector<std::string> filesStartingWith(const std::string& folder, const std::string& prefix) {
+  std::vector<std::string> out;
+  for (const auto& e : std::filesystem::directory_iterator(folder)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) == 0) out.push_back(name);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace
+
+// Outputs appear under their names only when they are complete: a finished run leaves exactly
+// trajectory.csv and energy.csv, a failed one the same (holding the run up to its last good
+// state), a killed one neither.
+TEST(FemClothSim, OutputsAppearOnlyWhenComplete) {
+  const std::string done = scratch().path("complete");
+  ASSERT_EQ(runSim({"--scene", kConfigDir + "/seed_triangle.yaml", "--duration", "0.05", "--out", done, "-q"}).status, 0);
+  EXPECT_EQ(filesStartingWith(done, ""), (std::vector<std::string>{"energy.csv", "trajectory.csv"}));
+
+  // Neo-Hookean cannot follow the planar sheet's pins through each other (t = 1/3 s): exit 3,
+  // the files hold every step up to the last good one.
+  const std::string failed = scratch().path("failed");
+  const Result r = runSim({"--scene", kConfigDir + "/planar_sheet.yaml", "--set", "material.model=neo_hookean",
+                           "--duration", "0.4", "--every", "1", "--out", failed, "-q"});
+  ASSERT_EQ(r.status, 3) << r.err;
+  EXPECT_EQ(filesStartingWith(failed, ""), (std::vector<std::string>{"energy.csv", "trajectory.csv"}));
+  const std::vector<std::string> rows = lines(readFile(failed + "/trajectory.csv"));
+  ASSERT_GE(rows.size(), 3u);
+  std::istringstream last(rows.back());
+  double t = 0.0;
+  last >> t;
+  EXPECT_GT(t, 0.3);
+  EXPECT_LT(t, 0.4);
+
+  // Into a bag: no bag at all (nor its temporary file) when the simulation fails.
+  const std::string bag = scratch().path("failed_run.bag");
+  const Result b = runSim({"--scene", kConfigDir + "/planar_sheet.yaml", "--set", "material.model=neo_hookean",
+                           "--duration", "0.4", "--out", bag, "-q"});
+  EXPECT_EQ(b.status, 3) << b.err;
+  EXPECT_NE(b.err.find("the simulation failed at step"), std::string::npos) << b.err;
+  EXPECT_NE(b.err.find("no bag was written"), std::string::npos) << b.err;
+  EXPECT_NE(b.out.find("steps:"), std::string::npos) << "the summary is still printed";
+  EXPECT_TRUE(filesStartingWith(scratch().path(""), "failed_run.bag").empty());
+
+  // Killed (SIGKILL) while it runs: nothing under the final names.
+  const std::string killed = scratch().path("killed");
+  std::filesystem::create_directories(killed);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int null = open("/dev/null", O_WRONLY);
+    dup2(null, STDOUT_FILENO);
+    dup2(null, STDERR_FILENO);
+    execl(kProgram.c_str(), kProgram.c_str(), "--scene", (kConfigDir + "/hanging_cloth.yaml").c_str(),
+          "--duration", "1000", "--out", killed.c_str(), "-q", static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  // Until it has started writing (a bound so that a broken program fails the test, not hangs it).
+  for (int i = 0; i < 1200 && filesStartingWith(killed, "trajectory.csv.partial-").empty(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  kill(pid, SIGKILL);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFSIGNALED(status)) << "it was still running when killed";
+  EXPECT_FALSE(std::filesystem::exists(killed + "/trajectory.csv"));
+  EXPECT_FALSE(std::filesystem::exists(killed + "/energy.csv"));
+  EXPECT_EQ(filesStartingWith(killed, "trajectory.csv.partial-").size(), 1u);
 }

@@ -1,5 +1,7 @@
 // Bending energies of a cloth (3D) triangle mesh, defined on hinges: pairs of triangles that
-// share an edge. Two models:
+// share an edge. The default model, MidedgeBending (bending_midedge.h), converges to
+// Kirchhoff-Love plate theory with a bending Poisson ratio, free edges included. Two simpler
+// models:
 //  - QuadraticBending: Bergou, Wardetzky, Harmon, Zorin, Grinspun, "A Quadratic Bending Model
 //    for Inextensible Surfaces" (SGP 2006). Quadratic in x, so its Hessian is constant (and PSD);
 //    cheap for implicit steps. Exact for isometric bending of a flat rest shape only.
@@ -7,10 +9,11 @@
 //    function of the dihedral angles; preserves any (also curved) rest shape; its Hessian changes
 //    every step and is made PSD per hinge on request.
 //
-// Both are scaled to the Kirchhoff plate energy E = (k/2) * integral (kappa1 + kappa2)^2 dA with
-// the bending stiffness k (N m = J) of bendingStiffness(): for a smooth isometric bending of a
-// flat sheet the discrete energies converge to it as the mesh is refined (on regular meshes; see
-// docs/bending.md for the calibration and its limits).
+// Both are scaled to the plate energy E = (k/2) * integral (kappa1 + kappa2)^2 dA with the
+// bending stiffness k (N m = J) of bendingStiffness(): for a smooth isometric bending of a flat
+// sheet the discrete energies converge to it as the mesh is refined (on regular meshes; see
+// docs/bending.md for the calibration and its limits). That is the plate energy with a bending
+// Poisson ratio of 1, which a saddle does not resist: free edges let it bend too far.
 #pragma once
 
 #include <array>
@@ -61,6 +64,13 @@ using HingeMatrix = Eigen::Matrix<double, 12, 12>;
 /// is then undefined.
 bool dihedralAngle(const HingePositions& x, double* angle, HingeVector* gradient = nullptr,
                    HingeMatrix* hessian = nullptr);
+
+/// The positions of a hinge's vertices x0..x3 taken from the flat positions x (d = 3).
+HingePositions hingePositions(const VectorX& x, const Hinge& hinge);
+
+/// The closest PSD matrix (Frobenius norm): the negative eigenvalues set to zero, symmetric to
+/// the last bit.
+HingeMatrix clampNegativeEigenvalues(const HingeMatrix& H);
 
 /// Shared machinery of the hinge-based terms: the hinges, their Hessian stencils and cached
 /// offsets, the per-hinge energy and gradient buffers, and their fixed-order reduction. Hinge
@@ -182,13 +192,27 @@ class DihedralBending final : public HingeTerm {
   std::vector<HingeMatrix, Eigen::aligned_allocator<HingeMatrix>> hessian_;
 };
 
-/// The model names accepted by makeBendingTerm: quadratic, dihedral.
+/// The model names accepted by makeBendingTerm: midedge (the default, bending_midedge.h),
+/// quadratic, dihedral.
 const std::vector<std::string>& bendingModelNames();
 
-/// The bending term of a cloth mesh for a model name and a bending stiffness k (N m, see
-/// bendingStiffness). k = 0 returns nullptr: the term is not assembled at all. Errors name the
-/// culprit: an unknown model (listing the known ones), k negative or not finite, a planar
-/// (dim 2) mesh, or a rest state that does not belong to the mesh.
+/// What a scene asks of its bending term.
+struct BendingSpec {
+  std::string model = "midedge";
+  double stiffness = 0.0;     ///< k = D (N m), see bendingStiffness; 0: no term at all
+  double poissonRatio = 0.0;  ///< midedge: the bending Poisson ratio nu_b, in [0, 0.5)
+  /// midedge: per vertex (or empty), held for the whole run; triangles with three held vertices
+  /// are clamp plates.
+  std::vector<char> held;
+};
+
+/// The bending term of a cloth mesh. k = 0 returns nullptr: the term is not assembled at all.
+/// Errors name the culprit: an unknown model (listing the known ones), k negative or not finite,
+/// nu_b outside [0, 0.5), a held list of the wrong size, a planar (dim 2) mesh, or a rest state
+/// that does not belong to the mesh.
+Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
+                                                      const BendingSpec& spec);
+/// The same with nu_b = 0 and nothing held.
 Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
                                                       const std::string& model, double stiffness);
 

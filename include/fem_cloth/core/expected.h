@@ -22,6 +22,16 @@ inline std::string numberText(double v) {
   return s.str();
 }
 
+/// Text taken from an input (a key, a frame or topic name, a type read from a bag) as messages
+/// show it: one line (control characters as '?'), at most maxLength characters ("..." after).
+inline std::string printableText(const std::string& text, std::size_t maxLength = 200) {
+  std::string out;
+  for (const char c : text.substr(0, maxLength)) {
+    out += (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) ? '?' : c;
+  }
+  return text.size() > maxLength ? out + "..." : out;
+}
+
 template <typename T>
 class Expected {
  public:
@@ -61,3 +71,12 @@ class Status {
 };
 
 }  // namespace fem_cloth
+
+/// Returns the error of a Status-valued expression from the enclosing function (which returns a
+/// Status or an Expected), and goes on when it succeeded.
+#define FEM_CLOTH_CHECK(expr)     \
+  do {                            \
+    if (::fem_cloth::Status check_ = (expr); !check_) { \
+      return ::fem_cloth::Error{check_.error()}; \
+    }                             \
+  } while (false)

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -11,6 +12,13 @@
 namespace fem_cloth {
 
 using Triangle = std::array<Index, 3>;
+
+/// The largest mesh a scene may have: 10^7 vertices (about 2 x 10^7 triangles). Far beyond what
+/// steps in useful time here, far below where Index (int) arithmetic on DOFs (3 n) overflows.
+constexpr Index kMaxVertices = 10'000'000;
+constexpr Index kMaxTriangles = 2 * kMaxVertices;
+/// The largest OBJ file read (bytes): room for a mesh of kMaxVertices vertices.
+constexpr std::uintmax_t kMaxObjFileBytes = std::uintmax_t{1} << 30;
 
 struct Mesh {
   /// Embedding dimension: 2 (planar) or 3 (cloth).
@@ -51,14 +59,15 @@ Expected<Mesh> makeGrid(const GridSpec& spec);
 
 /// Reads `v` and `f` lines of a Wavefront OBJ file (other lines are ignored). Faces with more
 /// than three vertices are split into a fan; `f a/b/c` and negative (relative) indices are
-/// accepted. dim = 2 drops the z coordinate and requires it to be zero.
+/// accepted. dim = 2 drops the z coordinate and requires it to be zero. The file must be a regular
+/// text file of at most kMaxObjFileBytes, the mesh at most kMaxVertices and kMaxTriangles.
 Expected<Mesh> loadObj(const std::string& path, int dim = 3);
 /// Same, from OBJ text; `sourceName` is used in error messages.
 Expected<Mesh> parseObj(const std::string& text, int dim = 3, const std::string& sourceName = "obj");
 
 struct MeshValidation {
   std::vector<std::string> errors;    ///< make the mesh unusable; each names the element
-  std::vector<std::string> warnings;  ///< worth knowing (non-manifold edges, unused vertices)
+  std::vector<std::string> warnings;  ///< worth knowing (non-manifold edges, poor shapes)
   bool ok() const { return errors.empty(); }
   /// All errors joined into one message (empty if ok).
   std::string errorSummary(std::size_t maxListed = 5) const;
@@ -75,8 +84,8 @@ double restBoundingBoxDiagonal(const Mesh& mesh);
 
 /// Checks the mesh. Errors: dim not 2 or 3, non-finite coordinates, vertex index out of range,
 /// a triangle repeating a vertex, repeated triangles, triangles whose quality is below
-/// `minQuality` (zero- or near-zero area). Warnings: non-manifold edges (shared by more than two
-/// triangles), vertices used by no triangle.
+/// `minQuality` (zero- or near-zero area), vertices used by no triangle (they would have no
+/// mass). Warnings: non-manifold edges (shared by more than two triangles).
 MeshValidation validateMesh(const Mesh& mesh, double minQuality = 1e-4);
 
 }  // namespace fem_cloth

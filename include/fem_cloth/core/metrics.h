@@ -1,6 +1,8 @@
 // Measurements of a deformed cloth used in summaries, markers and reports.
 #pragma once
 
+#include <string>
+
 #include <vector>
 
 #include "fem_cloth/core/mesh.h"
@@ -29,5 +31,9 @@ class EdgeStretchMeter {
 /// Per-triangle largest principal stretch minus one (s1 - 1 of F), for colouring by strain.
 void triangleStrains(const Mesh& mesh, const RestState& rest, const VectorX& x,
                      std::vector<double>& out);
+
+/// 64-bit FNV-1a over the bits of the positions, then the velocities, as 16 hex digits (what
+/// ClothState.state_hash carries): equal hashes mean bit-identical states.
+std::string stateHash(const VectorX& x, const VectorX& v);
 
 }  // namespace fem_cloth

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -22,6 +23,11 @@
 #include "fem_cloth/core/simulator.h"
 
 namespace fem_cloth {
+
+/// Every position a scene gives (m) lies within this distance of the origin in each coordinate.
+constexpr double kMaxCoordinate = 1e4;
+/// The most steps (duration / dt x substeps) a scene may ask a tool to run.
+constexpr std::uint64_t kMaxSteps = 100'000'000;
 
 /// A set of vertices: explicit indices, grid coordinates (row, col; negative counts from the
 /// end, so -1 is the last row or column), or a whole grid edge. Grid forms keep a scene valid
@@ -104,8 +110,9 @@ struct Scene {
   double density = 2000.0;       ///< kg/m^3; areal density = density x thickness
 
   // bending
-  std::string bendingModel = "quadratic";
-  double bendingStiffness = 0.0;  ///< N m; 0: no bending term at all
+  std::string bendingModel = "midedge";
+  double bendingStiffness = 0.0;     ///< N m; 0: no bending term at all
+  double bendingPoissonRatio = 0.0;  ///< midedge: nu_b (docs/bending.md: why 0 for woven cloth)
 
   Damping damping;
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
@@ -145,6 +152,18 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& k
 inline bool sceneHasContact(const Scene& scene) {
   return !scene.obstacles.empty() || scene.contact.selfCollision;
 }
+
+/// Per vertex: pinned by the scene from the start and never released (midedge bending treats
+/// triangles with three such vertices as clamp plates). Errors as resolveSelection.
+Expected<std::vector<char>> heldVertices(const Scene& scene, Index numVertices);
+
+/// A run of more than kMaxSteps steps (duration / dt x substeps) is refused before it starts: at
+/// the speeds reachable here it would not finish. `what` names the duration in the message.
+Status checkStepCount(double duration, double dt, int substeps, const std::string& what);
+
+/// The OBJ file a scene's mesh is read from, relative paths resolved against the scene file
+/// ("" for other meshes).
+std::string meshFilePath(const Scene& scene);
 
 /// Membrane Lame parameters (N/m) of a scene: volumetric moduli times thickness.
 Expected<Lame> membraneLame(const Scene& scene);

@@ -31,7 +31,8 @@ struct SimulatorSettings {
 };
 
 /// Energies in joules. The balance error is the drift of
-///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork + dissipated
+///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork - liveWork
+///   + dissipated
 /// since the start (or the last reset); zero for the exact solution. It is split by the sign of
 /// each step's share: balanceError = created - numericalDissipation, where numericalDissipation
 /// is what the steps lost beyond the damping model (expected of the implicit schemes, XPBD and
@@ -45,6 +46,9 @@ struct EnergyReport {
   double externalWork = 0.0;
   double pinWork = 0.0;
   double contactWork = 0.0;  ///< by obstacles and self-contact, friction included (<= 0 when static)
+  /// Put in by live changes (core/live_change.h): at each, the jump of the stored energy at the
+  /// state it was made in (stiffer cloth, other gravity), as work done by whoever changed it.
+  double liveWork = 0.0;
   double dissipated = 0.0;
   double total = 0.0;  ///< kinetic + strain + bending + gravity
   double balanceError = 0.0;
@@ -77,6 +81,11 @@ class Simulator {
   Status setInitialState(const VectorX& x, const VectorX& v = VectorX());
   /// Back to the initial state, pins and forces (those present when it was set) and time 0.
   void reset();
+  /// Takes over where `from` (the simulator of the same mesh before a live change of its
+  /// parameters) is: state and history, time and step, pins, forces, what reset() restores, the
+  /// substep adaptivity and the energy bookkeeping, the energy the change puts in booked as
+  /// liveWork. Only for core/live_change.h, which builds this simulator from the changed scene.
+  void continueFrom(Simulator& from);
 
   // --- Commands (between steps) ---------------------------------------------------------------
   /// Pins a vertex at a target (m) that from now on moves with `velocity` (m/s): the pin follows
@@ -155,7 +164,7 @@ class Simulator {
   // Energy bookkeeping.
   VectorX initialPositions_;
   double initialTotal_ = 0.0;
-  double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, dissipated_ = 0.0;
+  double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, dissipated_ = 0.0, liveWork_ = 0.0;
   double numerical_ = 0.0, created_ = 0.0;
   double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the

@@ -7,6 +7,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -14,13 +15,19 @@
 
 namespace fem_cloth {
 
+/// The largest scene file read (bytes): far more than any scene with an explicit mesh of
+/// practical size, far less than what would exhaust the memory of the YAML tree.
+constexpr std::uintmax_t kMaxSceneFileBytes = 16u << 20;
+
 /// Reads a scene document and applies `key.path=value` overrides (the value is YAML: a number,
 /// a word, or a [list]).
 Expected<YAML::Node> loadSceneDocument(const std::string& path,
                                        const std::vector<std::string>& overrides = {});
 /// Applies one `key.path=value` override to a document; the path must name a known key.
 Status applySceneOverride(YAML::Node& document, const std::string& assignment);
-/// Converts a document into a validated Scene; sourcePath resolves relative mesh files.
+/// Converts a document into a validated Scene; sourcePath resolves relative mesh files and
+/// preset files. `material: {preset: NAME}` merges a fabric preset from config/materials/
+/// (docs/materials.md, "Presets") under the scene's own keys.
 Expected<Scene> parseScene(const YAML::Node& document, const std::string& sourcePath = "");
 /// loadSceneDocument + parseScene.
 Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides = {});

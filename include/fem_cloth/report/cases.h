@@ -12,10 +12,12 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "fem_cloth/core/expected.h"
+#include "fem_cloth/io/recording.h"
 
 namespace fem_cloth::report {
 
@@ -46,6 +48,7 @@ struct AccuracyScene {
   std::string description;   ///< one line for tables and the docs
   YAML::Node document;       ///< the scene; integrator, dt and duration are set per run
   std::string commandsBag;   ///< a recorded run whose commands and frames drive it ("" none)
+  std::shared_ptr<const Recording> recording;  ///< that run, read (null: none)
   double duration = 1.0;     ///< s
   double sampleInterval = 1.0 / 30.0;  ///< s: positions compared at every multiple of this
   std::vector<double> dts;   ///< tested steps (s), coarse to fine; each divides sampleInterval
@@ -78,8 +81,9 @@ struct AccuracyScene {
 /// dts: 1/30 to 1/480 s (hanging, stiff), 0.04 to 0.0025 s (grasp: its commands are stamped on
 /// a 0.01 s grid), 1/80 to 1/640 s (smooth). `small`: 9 x 9, 0.2 s, three dts, no stiff_arap,
 /// grasp, long or smooth scene.
+/// `recording` (null: none) is the grasp scene's recorded run.
 Expected<std::vector<AccuracyScene>> accuracyScenes(const std::string& configDir,
-                                                    const std::string& bag, bool small);
+                                                    std::shared_ptr<const Recording> recording, bool small);
 
 /// Stretch stiffness levels of the stability matrix: cotton-like (E h = 1e4 N/m, nu = 0.3, the
 /// hanging cloth), 100x (nu = 0.45, the stiff cloth) and 1000x (nu = 0.49).

@@ -14,15 +14,15 @@
 
 #include "fem_cloth/core/conventions.h"
 #include "fem_cloth/core/expected.h"
-#include "fem_cloth/ros/bag_io.h"
+#include "fem_cloth/io/recording.h"
 
 namespace fem_cloth::report {
 
 struct RunRequest {
   YAML::Node scene;  ///< the complete scene document (integrator and dt included)
-  /// A recorded run whose commands and tf frames drive the scene through the node's
-  /// SimulationDriver (null: the scene's own pins and forces only).
-  std::shared_ptr<const RecordedRun> commands;
+  /// A recorded run whose commands and frames drive the scene (the ROS side's reader gives it:
+  /// the node's SimulationDriver fed from a bag); null: the scene's own pins and forces only.
+  std::shared_ptr<const Recording> commands;
   double recordedDt = 0.0;  ///< the recording's step (s), which fixes its time origin
   double duration = 0.0;    ///< s; 0: the scene's duration
   /// Positions are kept every sampleInterval seconds of simulated time (must be a multiple of

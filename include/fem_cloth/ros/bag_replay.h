@@ -6,11 +6,14 @@
 // scene simply runs and is written out.
 #pragma once
 
+#include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/simulator.h"
+#include "fem_cloth/io/recording.h"
 #include "fem_cloth/ros/bag_io.h"
 
 namespace fem_cloth {
@@ -33,7 +36,7 @@ struct BagRunReport {
   std::uint64_t steps = 0;
   double simulated = 0.0;  ///< s
   double wall = 0.0;       ///< s
-  std::size_t pinCommands = 0, forceCommands = 0;
+  std::array<std::size_t, kCommandTopics> commands{};  ///< replayed, per command topic
   bool exactCommands = false;  ///< replayed the applied-command stream
   std::size_t rejected = 0;    ///< commands the driver rejected (as the node did live)
   std::size_t compared = 0;    ///< recorded states compared with the re-simulation
@@ -43,10 +46,20 @@ struct BagRunReport {
   EnergyReport energy;
   EdgeStretch stretch;  ///< of the final state
   std::vector<std::string> warnings;
+  /// Why the simulation failed (a step that could not be taken), empty when it ran to the end.
+  /// The report then describes the run up to the failure, and no bag is written.
+  std::string failure;
 };
 
-/// Runs into `outBag` (written as outBag.partial and renamed at the end). `inBag` may be empty.
+/// Runs into `outBag`, through a temporary file renamed at the end (RunWriter). `inBag` may be
+/// empty. An error is bad input: an unreadable or inconsistent bag, a bad scene, an output that
+/// is one of the inputs, a run too long; a simulation that fails is a report with `failure`.
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options);
+
+/// A recorded run for the accuracy report (io/recording.h): its commands and tf frames drive a
+/// simulation through the node's SimulationDriver. Errors as readRun's.
+Expected<std::shared_ptr<const Recording>> readRecording(const std::string& path,
+                                                         const std::string& node = "/fem_cloth_node");
 
 }  // namespace fem_cloth

@@ -38,11 +38,13 @@
 #include <tf2_ros/buffer.h>
 
 #include <array>
+#include <map>
 #include <memory>
 #include <string>
 
 #include "fem_cloth/Advance.h"
 #include "fem_cloth/ros/command_queue.h"
+#include "fem_cloth/ros/live_services.h"
 #include "fem_cloth/ros/perception.h"
 #include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/simulation_driver.h"
@@ -73,8 +75,6 @@ class ClothNode {
   bool readParameters(std::string* error);
   bool readLimits(std::string* error);
   void advertise();
-  void onPin(const PinCommand::ConstPtr& msg);
-  void onForce(const ForceCommand::ConstPtr& msg);
   bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onResume(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
@@ -103,7 +103,13 @@ class ClothNode {
   void stepOnce();
   /// /clock at the simulation time (fast mode only).
   void publishClock();
+  /// The real-time factor is measured from here (start, reset, resume, each ~1 s window).
+  void restartRealTimeFactorWindow();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
+  /// ~pin_forces, ~pin_wrench and ~grasp/<frame>/wrench, from one copy of the pin reactions.
+  void publishPinReactions();
+  /// ~obstacles/<name>/wrench and ~obstacle_markers for the obstacles there are now.
+  void refreshObstacleTopics();
   /// At least once a second; within 0.1 s after a problem (at most 10 per second).
   void publishDiagnostics(bool force);
   CommandCounts commandCounts(CommandTopic topic) const;
@@ -157,11 +163,14 @@ class ClothNode {
   ros::WallTime lastDiagnostics_;
   bool diagnosticsSoon_ = false;
 
-  ros::Subscriber pinSub_, forceSub_;
+  std::vector<ros::Subscriber> commandSubs_;  // one per command topic (Command's order)
+  std::vector<ros::Publisher> appliedPubs_;   // ~applied_<topic>, likewise
   ros::Publisher meshPub_, statePub_, energyPub_, statsPub_, pinForcesPub_,
-      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_, appliedPinPub_, appliedForcePub_,
+      pinWrenchPub_, clockPub_, diagnosticsPub_, scenePub_,
       obstacleMarkerPub_;
   std::vector<ros::Publisher> obstacleWrenchPubs_;  // ~obstacles/<name>/wrench, scene order
+  std::map<std::string, ros::Publisher> graspWrenchPubs_;  // ~grasp/<frame>/wrench, by frame
+  std::unique_ptr<LiveServices> live_;  // ~set, the obstacle services, ~grasp_nearest
   std::string sceneText_;
   ros::ServiceServer resetSrv_, pauseSrv_, resumeSrv_, stepSrv_, advanceSrv_;
 };

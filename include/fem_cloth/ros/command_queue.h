@@ -11,26 +11,81 @@
 #include <deque>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
 #include "fem_cloth/CommandStats.h"
 #include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/GraspCommand.h"
+#include "fem_cloth/ObstacleCommand.h"
 #include "fem_cloth/PinCommand.h"
+#include "fem_cloth/SetCommand.h"
 #include "fem_cloth/core/expected.h"
 
 namespace fem_cloth {
 
-enum class CommandTopic : std::size_t { Pin = 0, Force = 1 };
-constexpr std::size_t kCommandTopics = 2;
+// The command topics. Adding one: its message (msg/), its line here (the variant and its
+// traits), its check and apply in simulation_driver.cpp, and CMakeLists.txt (the message). The
+// node subscribes to it and publishes it as applied, bags record and replay it, and its counts
+// are reported, all from this list (docs/architecture.md, the ROS side).
+template <class C>
+struct CommandTraits;
+template <>
+struct CommandTraits<PinCommand> {
+  static constexpr const char* name = "pin";  ///< ~pin; as applied: ~applied_pin
+};
+template <>
+struct CommandTraits<ForceCommand> {
+  static constexpr const char* name = "force";
+};
+template <>
+struct CommandTraits<SetCommand> {
+  static constexpr const char* name = "set";  ///< also the ~set service
+};
+template <>
+struct CommandTraits<ObstacleCommand> {
+  static constexpr const char* name = "obstacle";  ///< also ~add_obstacle, ~remove_obstacle, ~move_obstacle
+};
+template <>
+struct CommandTraits<GraspCommand> {
+  static constexpr const char* name = "grasp";  ///< also the ~grasp_nearest service
+};
 
-using Command = std::variant<PinCommand, ForceCommand>;
+using Command = std::variant<PinCommand, ForceCommand, SetCommand, ObstacleCommand, GraspCommand>;
+constexpr std::size_t kCommandTopics = std::variant_size_v<Command>;
 
-inline CommandTopic topicOf(const Command& c) {
-  return std::holds_alternative<PinCommand>(c) ? CommandTopic::Pin : CommandTopic::Force;
+/// A topic by its index in Command (Pin and Force named for the code that means them).
+enum class CommandTopic : std::size_t { Pin = 0, Force = 1, Set = 2, Obstacle = 3, Grasp = 4 };
+
+inline CommandTopic topicOf(const Command& c) { return static_cast<CommandTopic>(c.index()); }
+template <class C>
+constexpr CommandTopic topicOf() {
+  return static_cast<CommandTopic>(Command(C()).index());
 }
-/// "pin" or "force", the topic's name under the node.
+/// The topic's name under the node ("pin", "force").
 const char* topicName(CommandTopic topic);
+/// Every topic, in Command's order.
+std::array<CommandTopic, kCommandTopics> commandTopics();
+
+template <class C>
+struct CommandType {
+  using type = C;
+};
+template <class F, std::size_t... I>
+void forEachCommandType(F&& f, std::index_sequence<I...>) {
+  (f(CommandType<std::variant_alternative_t<I, Command>>()), ...);
+}
+/// Calls f(CommandType<C>()) for each command type C, in Command's order.
+template <class F>
+void forEachCommandType(F&& f) {
+  forEachCommandType(f, std::make_index_sequence<kCommandTopics>());
+}
+
+/// The header of any command.
+inline const std_msgs::Header& headerOf(const Command& c) {
+  return std::visit([](const auto& command) -> const std_msgs::Header& { return command.header; }, c);
+}
 
 /// What became of the commands of one topic. received = rejected + applied + pending + discarded.
 struct CommandCounts {

@@ -76,6 +76,7 @@ class PerceptionOutputs {
   /// the static frames (camera pose; the simulation frame with publish_world_frame: true).
   static Expected<std::unique_ptr<PerceptionOutputs>> create(ros::NodeHandle privateNode,
                                                              const SimulationDriver& driver,
+                                                             const Scene& scene,
                                                              const tf2::BufferCore& tf,
                                                              PerceptionSettings settings);
 

@@ -1,6 +1,7 @@
-// The simulation as ROS messages see it, without needing a ROS master: commands in (validated,
-// scheduled by their stamp, frames resolved through a tf2 buffer), one step at a time, messages
-// out. The node (cloth_node.h) feeds it from topics and publishes what it builds; the offline
+// The simulation as ROS commands drive it, without needing a ROS master: commands in (validated,
+// scheduled by their stamp in a CommandQueue, frames resolved by a FrameResolver, pins kept by a
+// PinSet), one step at a time; what it holds goes out through the free conversions of
+// conversions.h. The node (cloth_node.h) feeds it from topics and publishes what it builds; the offline
 // bag re-simulation feeds it from a bag. Sharing it is what makes a live run and its offline
 // replay apply every command at the same step.
 //
@@ -10,12 +11,8 @@
 // checked (time_checks.h): a stamp no ROS duration can relate to the epoch is refused by name.
 #pragma once
 
-#include <geometry_msgs/WrenchStamped.h>
 #include <ros/time.h>
-#include <shape_msgs/Mesh.h>
 #include <tf2/buffer_core.h>
-#include <visualization_msgs/Marker.h>
-#include <visualization_msgs/MarkerArray.h>
 
 #include <array>
 #include <map>
@@ -25,15 +22,12 @@
 #include <variant>
 #include <vector>
 
-#include "fem_cloth/ClothEnergy.h"
-#include "fem_cloth/ClothState.h"
-#include "fem_cloth/ForceCommand.h"
-#include "fem_cloth/PinCommand.h"
-#include "fem_cloth/PinForces.h"
-#include "fem_cloth/StepStats.h"
-#include "fem_cloth/core/metrics.h"
+#include "fem_cloth/core/pin_set.h"
 #include "fem_cloth/core/scene.h"
+#include "fem_cloth/io/live_change.h"
 #include "fem_cloth/ros/command_queue.h"
+#include "fem_cloth/ros/conversions.h"
+#include "fem_cloth/ros/frame_resolver.h"
 
 namespace fem_cloth {
 
@@ -43,7 +37,6 @@ struct DriverSettings {
   /// A frame whose newest transform is older than this (s, in ROS time) is stale: commands
   /// referring to it are rejected, and the pins that follow it stop following and stay put.
   double tfTimeout = 1.0;
-  bool publishVelocities = false;
   /// A pin target farther than this (m) from where its vertex is is refused: the pin would move
   /// the vertex there within one step. Checked when a pin command is applied and whenever a
   /// followed frame moves its pins (a frame that jumps loses its followers).
@@ -52,28 +45,29 @@ struct DriverSettings {
   std::size_t maxPendingCommands = 10000;
 };
 
-/// 64-bit FNV-1a over the bits of the positions, then the velocities, as 16 hex digits.
-std::string stateHash(const VectorX& x, const VectorX& v);
-
 class SimulationDriver {
  public:
-  /// tf may be null: then only commands in the simulation frame are accepted.
-  SimulationDriver(Simulation simulation, Scene scene, DriverSettings settings,
-                   const tf2::BufferCore* tf);
+  /// tf may be null: then only commands in the simulation frame are accepted. `document` is the
+  /// scene document the simulation was built from; without it, live changes (~set, obstacle
+  /// commands) are refused.
+  SimulationDriver(Simulation simulation, DriverSettings settings, const tf2::BufferCore* tf,
+                   YAML::Node document = YAML::Node());
 
-  const Scene& scene() const { return scene_; }
   const DriverSettings& settings() const { return settings_; }
+  /// The scene document as live changes have left it (null without one).
+  const YAML::Node& document() const { return document_; }
   Simulator& simulator() { return *simulation_.simulator; }
   const Simulator& simulator() const { return *simulation_.simulator; }
   std::uint64_t stepIndex() const { return simulator().state().step; }
   ros::Time stampOf(double simulationTime) const;
   ros::Time now() const { return stampOf(simulator().time()); }
+  /// A header stamped now, in the simulation frame: what every output message carries.
+  std_msgs::Header header() const { return fem_cloth::header(now(), settings_.frame); }
   void setEpoch(const ros::Time& epoch) { settings_.epoch = epoch; }
 
   /// Validates a command against the mesh, the tf buffer and itself, and queues it. A command
   /// is rejected whole; the message names the problem.
-  Status submit(const PinCommand& command);
-  Status submit(const ForceCommand& command);
+  Status submit(const Command& command);
   std::size_t pendingCommands() const { return pending_.size(); }
   /// What became of the commands of a topic since construction (submitted = received; reset()
   /// does not clear the counts).
@@ -101,76 +95,85 @@ class SimulationDriver {
   /// Problems met while stepping (a frame no longer available, a command that could not be
   /// applied), since the last call.
   std::vector<std::string> takeWarnings();
-  /// The commands applied since the last call, each stamped with the simulation time (as ROS
-  /// time) of the step before which it took effect: replaying exactly these reproduces the run.
-  std::vector<PinCommand> takeAppliedPins();
-  std::vector<ForceCommand> takeAppliedForces();
+  /// The commands applied since the last call, in the order they took effect, each stamped with
+  /// the simulation time (as ROS time) of the step before which it took effect: replaying
+  /// exactly these reproduces the run.
+  std::vector<Command> takeApplied();
+  /// Those of one type (the others are kept for takeApplied()).
+  template <class C>
+  std::vector<C> takeApplied();
+  std::vector<PinCommand> takeAppliedPins() { return takeApplied<PinCommand>(); }
+  std::vector<ForceCommand> takeAppliedForces() { return takeApplied<ForceCommand>(); }
 
-  // --- Messages -------------------------------------------------------------------------------
-  shape_msgs::Mesh meshMessage() const;
-  ClothState stateMessage() const;
-  ClothEnergy energyMessage();
-  StepStats statsMessage(const StepReport& report, double wallTime, double realTimeFactor) const;
-  PinForces pinForcesMessage() const;
-  /// One wrench per grasp frame (the sum over the pins that follow it, expressed in that frame,
-  /// torque about its origin) and one in the simulation frame for pins fixed there.
-  std::vector<geometry_msgs::WrenchStamped> pinWrenchMessages() const;
-  /// The scene's obstacles as RViz markers at their current poses (empty without obstacles): a
-  /// plane as a thin square slab of side kPlaneMarkerSide whose top is the plane, a box, a
-  /// sphere, a capsule as a cylinder and two spheres; namespace "obstacles", ids 3k to 3k+2.
-  visualization_msgs::MarkerArray obstacleMarkers() const;
-  /// Per obstacle (in scene order): the force the cloth exerts on it in the simulation frame,
-  /// torque about the origin of its shape (a sphere's or box's centre, a plane's point).
-  std::vector<geometry_msgs::WrenchStamped> obstacleWrenchMessages() const;
+  // --- What the messages are made of (conversions.h makes them) ---------------------------------
+  /// The pose of a frame now (the simulation frame's is the identity).
+  FramePose framePose(const std::string& frame) const { return frames_.pose(frame, now()); }
+  const FrameResolver& frames() const { return frames_; }
+  const PinSet& pins() const { return pinSet_; }
+  /// One wrench per grasp frame (the pins that follow it, expressed in that frame, torque about
+  /// its origin) and one in the simulation frame for pins fixed there, from `reactions`
+  /// (Simulator::pinReactions(), computed once by the caller for every message that needs it).
+  std::vector<GraspWrench> graspWrenches(const VectorX& reactions) const;
   /// Names of the obstacles (scene order), as they appear in topic names.
   std::vector<std::string> obstacleNames() const;
 
  private:
-  struct Follow {
-    std::string frame;
-    Eigen::Vector3d local;  // target in that frame
-  };
-
-  Status checkFrame(const std::string& frame, const ros::Time& stamp) const;
-  bool isSimulationFrame(const std::string& frame) const;
-  /// `frame` -> simulation frame at `at`; when tf cannot interpolate there, the nearest
-  /// transform within tf_timeout, and `inexact` (if given) says which one was used.
-  std::optional<Eigen::Isometry3d> transform(const std::string& frame, const ros::Time& at,
-                                             std::string* why, std::string* inexact = nullptr) const;
-  /// True when tf can interpolate `frame` at `at`, or when waiting cannot help: `at` is not
-  /// later than the newest transform received (it precedes the frame's first transform, or
-  /// falls in a gap), so the transform for it will never arrive.
-  bool knownOrNeverWillBe(const std::string& frame, const ros::Time& at) const;
   /// The simulation time a stamp stands for (-1 for a zero stamp: the next step), or an error
   /// naming header.stamp when no ROS duration relates it to the epoch.
   Expected<double> commandTime(const ros::Time& stamp) const;
-  /// submit() for either kind: counts, checks the stamp, then `check`, then queues.
+  Status checkFrame(const std::string& frame, const ros::Time& stamp) const;
+  // Per command type (simulation_driver.cpp): validation when submitted, the effect when due,
+  // and the simulation times (0: the step's start, 1: its end) whose transforms it needs.
   template <class C>
-  Status submitCommand(const C& command);
-  Status check(const PinCommand& command) const;
-  Status check(const ForceCommand& command) const;
+  Status check(const C& command) const;
+  template <class C>
+  Status apply(C& command);  // may fill in what it did (GraspCommand: the vertices)
+  template <class C>
+  std::vector<int> transformTimes(const C& command) const;
   /// (frame, simulation time) of every transform the next step needs.
   std::vector<std::pair<std::string, double>> neededTransforms() const;
-  /// Error naming the first vertex whose target is farther than maxPinJump from it.
-  Status checkJumps(const std::vector<Index>& vertices,
-                    const std::vector<Eigen::Vector3d>& targets) const;
-  Status apply(const PinCommand& command);
-  Status apply(const ForceCommand& command);
-  void followFrames(double endTime);
+  void applyDue(double t);
+  /// The simulation rebuilt for a changed scene (core/live_change.h), continuing from now.
+  Status changeScene(Expected<LiveChange> change);
+  /// The document to change, or an error when the driver has none.
+  Status needsDocument() const;
   /// Poses of the frames obstacles follow at the start and end of the step from `time`.
   void followObstacleFrames(double time, double endTime);
 
   Simulation simulation_;
-  Scene scene_;
   DriverSettings settings_;
-  const tf2::BufferCore* tf_;
+  YAML::Node document_;
+  FrameResolver frames_;
   CommandQueue pending_;
   std::array<CommandCounts, kCommandTopics> counts_{};  // pending is pending_'s
-  std::map<Index, Follow> follow_;
+  PinSet pinSet_;
   std::map<std::size_t, Eigen::Isometry3d> obstacleFrame_;  // last known pose of a followed frame
   std::vector<std::string> warnings_;
-  std::vector<PinCommand> appliedPins_;
-  std::vector<ForceCommand> appliedForces_;
+  std::vector<Command> applied_;
 };
+
+/// Why `name` cannot name an obstacle (it names the topic ~obstacles/<name>/wrench): not a valid
+/// ROS name, or with a '/'.
+Status obstacleNameProblem(const std::string& name);
+
+/// The statistics of the step just taken (wall time and real-time factor as measured by the
+/// caller), with the driver's command counts.
+StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
+                       double realTimeFactor);
+
+template <class C>
+std::vector<C> SimulationDriver::takeApplied() {
+  std::vector<C> out;
+  std::vector<Command> rest;
+  for (Command& c : applied_) {
+    if (C* mine = std::get_if<C>(&c)) {
+      out.push_back(std::move(*mine));
+    } else {
+      rest.push_back(std::move(c));
+    }
+  }
+  applied_.swap(rest);
+  return out;
+}
 
 }  // namespace fem_cloth
