@@ -49,6 +49,7 @@ VERDICT_COLORS = OrderedDict([
     ("failed", "#ff7043"),
     ("too_slow", "#ab47bc"),
     ("n/a", "#bdbdbd"),
+    ("wrong", "#d50000"),
     ("non_finite", "#000000"),
 ])
 

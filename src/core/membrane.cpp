@@ -41,6 +41,28 @@ class MembraneTerm final : public EnergyTerm {
     hessian_.resize(m);
   }
 
+  bool hasValidityRange() const override { return Model::kHasValidityRange; }
+  Validity validity(const VectorX& x) const override {
+    Validity worst;
+    if constexpr (Model::kHasValidityRange) {
+      worst.limit = Model::kValidityLimit;
+      worst.what = Model::kValidityMeasure;
+      worst.advice = Model::kValidityAdvice;
+      for (Index t = 0; t < mesh_->numTriangles(); ++t) {
+        const double m =
+            model_.template validityMeasure<D>(deformationGradient<D>(*mesh_, *rest_, x, t), frames_[t]);
+        if (worst.element < 0 || m > worst.measure || !(m == m)) {
+          worst.measure = m;
+          worst.element = t;
+          if (!(m == m)) break;
+        }
+      }
+    } else {
+      (void)x;
+    }
+    return worst;
+  }
+
   bool supportsConstraints() const override { return true; }
   Index numElements() const override { return mesh_->numTriangles(); }
   int verticesPerElement() const override { return 3; }

@@ -17,7 +17,23 @@ void Model::addTerm(std::unique_ptr<EnergyTerm> term, TermKind kind) {
     // A new term may couple new vertices: rebuild the pattern on next use.
     hessian_.reset();
   }
+  hasValidityRanges_ = hasValidityRanges_ || term->hasValidityRange();
   terms_.push_back({std::move(term), kind});
+}
+
+Model::TermValidity Model::validity(const VectorX& x) const {
+  TermValidity worst;
+  if (!hasValidityRanges_) return worst;
+  for (std::size_t t = 0; t < terms_.size(); ++t) {
+    if (!terms_[t].term->hasValidityRange()) continue;
+    const Validity v = terms_[t].term->validity(x);
+    // The term furthest outside (or closest to) its limit, relative to the limit.
+    if (worst.term < 0 || !(v.measure / v.limit <= worst.validity.measure / worst.validity.limit)) {
+      worst.validity = v;
+      worst.term = static_cast<int>(t);
+    }
+  }
+  return worst;
 }
 
 EvalResult Model::evaluate(const VectorX& x, const EvalRequest& request) {

@@ -8,7 +8,10 @@ namespace fem_cloth {
 
 Simulator::Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> integrator,
                      SimulatorSettings settings)
-    : model_(std::move(model)), integrator_(std::move(integrator)), settings_(settings) {
+    : model_(std::move(model)),
+      integrator_(std::move(integrator)),
+      settings_(settings),
+      acceptance_(settings.acceptance) {
   const Index n = model_->numDofs();
   const int d = model_->dim();
   gravityForce_.resize(n);
@@ -25,19 +28,21 @@ Simulator::Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> i
   previousPinForce_ = VectorX::Zero(n);
   state_.x = model_->mesh().restPositions;
   state_.v = VectorX::Zero(n);
-  sizeScale_ = std::max(settings_.gravity.norm(), 9.81) * model_->totalMass() *
+  sizeScale_ = accelerationScale(settings_.gravity.norm()) * model_->totalMass() *
                restBoundingBoxDiagonal(model_->mesh());
+  rebuildExternalForce();
   snapshotInitial();
+}
+
+void Simulator::setAcceptance(const AcceptanceSettings& settings) {
+  settings_.acceptance = settings;
+  acceptance_ = StepAcceptance(settings);
 }
 
 double Simulator::mechanicalEnergy() {
   const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
   const EvalResult elastic = model_->evaluate(state_.x, EvalRequest{});
   return kinetic + elastic.energy - gravityForce_.dot(state_.x);
-}
-
-double Simulator::energyScale(double mechanical) const {
-  return std::max({sizeScale_, std::abs(mechanical + gravityForce_.dot(state_.x)), 1e-12});
 }
 
 void Simulator::snapshotInitial() {
@@ -47,7 +52,7 @@ void Simulator::snapshotInitial() {
   initial_.pinVelocity = pinVelocity_;
   initial_.forces = forces_;
   initialPositions_ = state_.x;
-  externalWork_ = pinWork_ = contactWork_ = dissipated_ = liveWork_ = 0.0;
+  externalWork_ = pinWork_ = contactWork_ = dissipated_ = liveWork_ = numerical_ = created_ = heldMost_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
@@ -91,7 +96,7 @@ void Simulator::reset() {
   rebuildExternalForce();
   integrator_->invalidate();
   if (contact_) contact_->reset();
-  externalWork_ = pinWork_ = contactWork_ = dissipated_ = liveWork_ = 0.0;
+  externalWork_ = pinWork_ = contactWork_ = dissipated_ = liveWork_ = numerical_ = created_ = heldMost_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   lastReport_ = StepReport();
@@ -119,6 +124,9 @@ void Simulator::continueFrom(Simulator& from) {
   pinWork_ = from.pinWork_;
   contactWork_ = from.contactWork_;
   dissipated_ = from.dissipated_;
+  numerical_ = from.numerical_;
+  created_ = from.created_;
+  heldMost_ = from.heldMost_;
   // What reset() goes back to is measured with the new parameters; the balance runs on
   // unbroken: the change's energy, the jump of the total here less that of the initial total.
   const double kinetic0 = 0.5 * initial_.state.v.dot(model_->dofMasses().cwiseProduct(initial_.state.v));
@@ -236,9 +244,82 @@ void Simulator::rebuildExternalForce() {
   externalForce_.setZero();
   const int d = dim();
   for (const Force& f : forces_) externalForce_.segment(d * f.vertex, d) += f.force.head(d);
+  referenceAcceleration_ = std::max(accelerationScale(settings_.gravity.norm()),
+                                    externalForce_.lpNorm<1>() / model_->totalMass());
 }
 
 StepReport Simulator::step() { return step(settings_.dt); }
+
+StepInput Simulator::stepInput(double dt) {
+  // End-of-step pin targets: a pin is at pinTarget_ now and moves on with its velocity, so a
+  // scripted pin follows p(t) = p0 + v t exactly at the end of every step.
+  stepPinTarget_ = pinTarget_ + pinVelocity_ * dt;
+  StepInput input;
+  input.model = model_.get();
+  input.gravityForce = &gravityForce_;
+  input.externalForce = &externalForce_;
+  input.pinned = &pinned_;
+  input.pinTarget = &stepPinTarget_;
+  input.damping = settings_.damping;
+  input.residualScale.acceleration = referenceAcceleration_;
+  input.residualScale.tolerance = settings_.acceptance.forceTolerance;
+  if (contact_) {
+    contact_->beginStep(state_.time, dt);
+    input.contact = contact_.get();
+  }
+  return input;
+}
+
+Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& energy) {
+  if (Status s = acceptance_.converged(r, dim()); !s) return s;
+  if (Status s = acceptance_.valid(*model_, state_.x); !s) return s;
+  const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
+  const EvalResult end = model_->evaluate(state_.x, EvalRequest{});
+  if (!end.inDomain) {
+    return Error{"element " + std::to_string(end.firstBadElement) +
+                 " left its material's domain in the step (inverted or collapsed)"};
+  }
+  const double elastic = end.energy;
+  energy.start = energyStart;
+  energy.end = kinetic + elastic - gravityForce_.dot(state_.x);
+  energy.held = std::max(energyStart + gravityForce_.dot(backup_.x), kinetic + elastic);
+  energy.externalWork = externalForce_.dot(state_.x - backup_.x);
+  energy.pinWork = r.pinWork;
+  energy.contactWork = r.contactWork;
+  energy.dissipated = r.dissipated;
+  if (Status s = acceptance_.energyConserved(energy, integrator_->energyTolerance(), sizeScale_); !s) {
+    return s;
+  }
+  const double runScale = runEnergyScale(energy.held, energy.externalWork, energy.pinWork, energy.contactWork);
+  return acceptance_.runEnergyConserved(created_ - numerical_, energy, runScale);
+}
+
+double Simulator::runEnergyScale(double held, double externalWork, double pinWork, double contactWork) const {
+  const double work = std::abs(externalWork_ + externalWork) + std::abs(pinWork_ + pinWork) +
+                      std::abs(contactWork_ + contactWork);
+  return std::max({sizeScale_, heldMost_, held, work});
+}
+
+void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt) {
+  externalWork_ += energy.externalWork;
+  pinWork_ += energy.pinWork;
+  contactWork_ += energy.contactWork;
+  dissipated_ += energy.dissipated;
+  const double created = energy.created();
+  if (created > 0.0) {
+    created_ += created;
+  } else {
+    numerical_ -= created;
+  }
+  heldMost_ = std::max(heldMost_, energy.held);
+  energyNow_ = energy.end;
+  if (contact_) contact_->commitStep();
+  previousPinForce_ = pinForce_;
+  state_.time += dt;
+  ++state_.step;
+  pinTarget_.swap(stepPinTarget_);
+  lastReport_ = r;
+}
 
 StepReport Simulator::step(double dt) {
   StepReport total;
@@ -255,65 +336,42 @@ StepReport Simulator::step(double dt) {
                 forces_.end());
   if (forces_.size() != before) rebuildExternalForce();
 
-  // End-of-step pin targets: a pin is at pinTarget_ now and moves on with its velocity, so a
-  // scripted pin follows p(t) = p0 + v t exactly at the end of every step.
-  stepPinTarget_ = pinTarget_ + pinVelocity_ * dt;
-  StepInput input;
-  input.model = model_.get();
-  input.gravityForce = &gravityForce_;
-  input.externalForce = &externalForce_;
-  input.pinned = &pinned_;
-  input.pinTarget = &stepPinTarget_;
-  input.damping = settings_.damping;
-  if (contact_) {
-    contact_->beginStep(state_.time, dt);
-    input.contact = contact_.get();
-  }
-
+  const StepInput input = stepInput(dt);
   backup_ = state_;
-  const double tolerance = integrator_->energyGrowthTolerance();
-  const bool guard = settings_.energyGuard && tolerance > 0.0;
-  const double energyStart = !guard ? 0.0 : energyNow_ ? *energyNow_ : mechanicalEnergy();
-  double energyEnd = 0.0;
-  const double scale = guard ? energyScale(energyStart) : 0.0;
+  const double energyStart = energyNow_ ? *energyNow_ : mechanicalEnergy();
+  EnergyStep energy;
   const int minSubsteps = std::max(settings_.minSubsteps, 1);
   if (currentSubsteps_ > minSubsteps && cleanSteps_ >= kRelaxAfter) {
     currentSubsteps_ = std::max(minSubsteps, currentSubsteps_ / 2);
     cleanSteps_ = 0;
   }
   int substeps = std::max(minSubsteps, currentSubsteps_);
+  std::string firstError;
   for (int attempt = 0; attempt <= settings_.maxRetries; ++attempt) {
     StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
-    if (r.ok && guard && state_.x.allFinite() && state_.v.allFinite()) {
-      // Work put in during the step by the (constant) forces and the pins, as an upper bound.
-      double inputWork = std::abs(r.contactWork);
-      for (Index i = 0; i < model_->numDofs(); ++i) {
-        const double dx = state_.x[i] - backup_.x[i];
-        inputWork += std::abs(externalForce_[i] * dx);
-        if (pinned_[i]) inputWork += std::abs(pinForce_[i] * dx) + std::abs(previousPinForce_[i] * dx);
-      }
-      energyEnd = mechanicalEnergy();
-      if (!(energyEnd <= energyStart + inputWork + tolerance * scale)) {
-        std::ostringstream msg;
-        msg << integrator_->name() << ": energy grew from " << energyStart << " J to "
-            << energyEnd << " J in one step with " << r.substeps
-            << " substeps (more than the work put in; blow-up)";
+    if (r.ok && !(state_.x.allFinite() && state_.v.allFinite())) {
+      r.ok = false;
+      r.error = "the state became non-finite";
+    } else if (r.ok) {
+      if (Status s = accept(r, energyStart, energy); !s) {
         r.ok = false;
-        r.error = msg.str();
+        r.error = integrator_->name() + ": " + s.error();
       }
     }
     total.substeps = r.substeps;
     total.newtonIterations += r.newtonIterations;
     total.lineSearchBacktracks += r.lineSearchBacktracks;
     total.iterations += r.iterations;
-    total.residual = r.residual;
+    total.unbalanced = r.unbalanced;
+    total.residual = r.unbalanced.largest;
     total.dtUsed = r.dtUsed;
     total.contactChecks += r.contactChecks;
     total.contacts = r.contacts;
     total.contactWork = r.contactWork;
     total.minContactDistance = r.minContactDistance;
-    if (r.ok && state_.x.allFinite() && state_.v.allFinite()) {
+    if (r.ok) {
       total.dissipated = r.dissipated;
+      total.pinWork = r.pinWork;
       total.ok = true;
       total.error.clear();
       if (attempt > 0) {
@@ -325,7 +383,8 @@ StepReport Simulator::step(double dt) {
       break;
     }
     total.ok = false;
-    total.error = r.ok ? "the state became non-finite" : r.error;
+    total.error = r.error;
+    if (firstError.empty()) firstError = r.error;
     state_ = backup_;
     integrator_->invalidate();
     if (!r.retryable) break;
@@ -334,9 +393,12 @@ StepReport Simulator::step(double dt) {
       substeps = std::max(substeps, r.substeps) * 2;
     }
   }
-  energyNow_.reset();
-  if (guard) energyNow_ = total.ok ? energyEnd : energyStart;
+  if (!total.ok && !firstError.empty() && firstError != total.error) {
+    // The retries may fail for another reason (a substep limit): the first one says what went wrong.
+    total.error += " (first attempt: " + firstError + ")";
+  }
   if (!total.ok) {
+    energyNow_ = energyStart;
     std::ostringstream msg;
     msg << "step at t = " << state_.time << " s failed after " << total.rollbacks
         << " rollbacks (last try: " << substeps << " substeps): " << total.error
@@ -346,22 +408,7 @@ StepReport Simulator::step(double dt) {
     lastReport_ = total;
     return total;
   }
-  // Energy bookkeeping: work of the (constant) external forces and, with the trapezoid rule, of
-  // the pins, along the displacement of this step; dissipation reported by the integrator.
-  const Index n = model_->numDofs();
-  for (Index i = 0; i < n; ++i) {
-    const double dx = state_.x[i] - backup_.x[i];
-    externalWork_ += externalForce_[i] * dx;
-    if (pinned_[i]) pinWork_ += 0.5 * (pinForce_[i] + previousPinForce_[i]) * dx;
-  }
-  dissipated_ += total.dissipated;
-  contactWork_ += total.contactWork;
-  if (contact_) contact_->commitStep();
-  previousPinForce_ = pinForce_;
-  state_.time += dt;
-  ++state_.step;
-  pinTarget_.swap(stepPinTarget_);
-  lastReport_ = total;
+  commit(total, energy, dt);
   return total;
 }
 
@@ -380,6 +427,9 @@ EnergyReport Simulator::energies() {
   e.total = e.kinetic + e.strain + e.bending + e.gravity;
   e.balanceError = e.total - e.externalWork - e.pinWork - e.contactWork - e.liveWork + e.dissipated -
                    initialTotal_;
+  e.numericalDissipation = numerical_;
+  e.created = created_;
+  e.energyScale = runEnergyScale(0.0, 0.0, 0.0, 0.0);
   return e;
 }
 

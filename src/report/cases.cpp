@@ -175,6 +175,34 @@ YAML::Node slam(int n) {
   return doc;
 }
 
+// The sudden-load strip of issue 11 (cases.h, StripCase): 4 N per vertex along the strip on its
+// last column, 2 N on its two corners (the consistent nodal loads of a uniform traction).
+YAML::Node strip() {
+  using S = StripCase;
+  YAML::Node doc = baseSheet("strip", 5, 3);
+  doc["mesh"]["rows"] = S::rows;
+  doc["mesh"]["cols"] = S::cols;
+  doc["mesh"]["width"] = S::length;
+  doc["mesh"]["height"] = S::width;
+  doc["material"]["density"] = 0.2 / S::thickness;
+  doc["damping"]["mass"] = 30.0;
+  doc["gravity"] = vec({0.0, 0.0, 0.0});
+  YAML::Node pin;
+  pin["grid_edge"] = "first_col";
+  doc["pins"].push_back(pin);
+  const double perVertex = S::force / (S::rows - 1);
+  YAML::Node inner, corners;
+  for (int r = 1; r + 1 < S::rows; ++r) inner["grid_vertices"].push_back(flow(std::vector<int>{r, -1}));
+  inner["force"] = vec({perVertex, 0.0, 0.0});
+  corners["grid_vertices"].push_back(flow(std::vector<int>{0, -1}));
+  corners["grid_vertices"].push_back(flow(std::vector<int>{-1, -1}));
+  corners["force"] = vec({0.5 * perVertex, 0.0, 0.0});
+  doc["forces"].push_back(inner);
+  doc["forces"].push_back(corners);
+  doc["duration"] = 0.5;  // a whole number of every step of the matrix
+  return doc;
+}
+
 }  // namespace
 
 std::string setting(const std::string& key, double value) {
@@ -369,7 +397,7 @@ const std::vector<double>& stabilityDts() {
 
 const std::vector<std::string>& extremeCaseNames() {
   static const std::vector<std::string> names = {"pull_corner", "squash", "inverted",
-                                                 "degenerate", "whip", "slam"};
+                                                 "degenerate", "whip", "slam", "strip"};
   return names;
 }
 
@@ -380,6 +408,7 @@ std::string extremeCaseDescription(const std::string& name) {
   if (name == "degenerate") return "hanging cloth whose rest mesh has three slivers (quality ~1e-5)";
   if (name == "whip") return "cloth hanging from one corner yanked at 100 m/s";
   if (name == "slam") return "cloth thrown flat at a floor (contact, friction 0.4) at 10 m/s";
+  if (name == "strip") return "strip 0.4 x 0.1 m pinned at one end, 20 N suddenly on the other";
   return name;
 }
 
@@ -391,6 +420,7 @@ Expected<YAML::Node> extremeCase(const std::string& name, int n) {
   if (name == "degenerate") return degenerate(n);
   if (name == "whip") return whip(n);
   if (name == "slam") return slam(n);
+  if (name == "strip") return strip();
   return Error{"unknown extreme case '" + name + "'"};
 }
 

@@ -120,7 +120,7 @@ RunResult runScene(const RunRequest& request) {
   out.integrator = simulator().integrator().name();
   out.dim = simulator().dim();
   out.clothSize = restBoundingBoxDiagonal(*mesh);
-  out.weightScale = simulator().model().totalMass() * std::max(scene->gravity.norm(), 9.81) * out.clothSize;
+  out.weightScale = simulator().model().totalMass() * accelerationScale(scene->gravity.norm()) * out.clothSize;
 
   double heldEnergy = 0.0, work = 0.0, maxBalance = -std::numeric_limits<double>::infinity();
   // Measures the state after a step (or the initial one); false if anything is non-finite.

@@ -480,8 +480,8 @@ int planStability(const Options& opt, StabilityPlan& plan) {
     }
   }
   if (opt.small) {
-    // The smoke test: two cases, two materials, cotton, the two largest steps.
-    if (opt.cases.empty()) plan.cases = {"pull_corner", "squash"};
+    // The smoke test: three cases, two materials, cotton, the two largest steps.
+    if (opt.cases.empty()) plan.cases = {"pull_corner", "squash", "strip"};
     if (opt.materials.empty()) plan.materials = {"stvk", "neo_hookean"};
     if (opt.stiffness.empty()) plan.levels = {plan.levels.front()};
     if (opt.dts.empty()) plan.dts = {1e-2, 1.0 / 30.0};
@@ -502,6 +502,8 @@ int planStability(const Options& opt, StabilityPlan& plan) {
     }
     for (const std::string& material : plan.materials) {
       for (const Stiffness& level : plan.levels) {
+        // The strip is the strip, cotton-like (cases.h).
+        if (c == "strip" && level.name != stiffnessLevels().front().name) continue;
         for (const std::string& integrator : plan.integrators) {
           for (double dt : plan.dts) {
             CellRun cell;

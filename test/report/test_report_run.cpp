@@ -252,6 +252,48 @@ TEST(StabilityCell, ClassifiesAndKeepsTheError) {
   EXPECT_NE(slow.run.error.find("stopped after"), std::string::npos) << slow.run.error;
 }
 
+// "wrong": accepted, but the result is not right. A StVK strip under T = 200 N/m in uniaxial
+// plane stress: the transverse stress vanishes, so S11 = 4 mu (lambda + mu) / (lambda + 2 mu) E11
+// = E h E11 with the plane-stress moduli, and the nominal stress s1 S11 = E h s1 (s1^2 - 1) / 2
+// equals T: s1 (s1^2 - 1) = 2 T / (E h) = 0.04, solved here by Newton.
+TEST(StabilityCell, WrongWhenTheStripMissesItsClosedFormOrEnergyWasCreated) {
+  using S = StripCase;
+  double s1 = 1.0;
+  for (int k = 0; k < 50; ++k) s1 -= (s1 * (s1 * s1 - 1.0) - 0.04) / (3.0 * s1 * s1 - 1.0);
+  auto stretched = [](double axial) {
+    VectorX x(3 * S::rows * S::cols);
+    for (int r = 0; r < S::rows; ++r) {
+      for (int c = 0; c < S::cols; ++c) {
+        x.segment<3>(3 * (r * S::cols + c)) << axial * c * S::length / (S::cols - 1),
+            r * S::width / (S::rows - 1), 0.0;
+      }
+    }
+    return x;
+  };
+  const Cell cell{"strip", "stvk", "cotton", "backward_euler", 1e-2};
+  RunResult run;
+  auto why = [&](const Cell& c) {
+    const Status status = checkCompleted(c, run);
+    return status.ok() ? std::string("right") : status.error();
+  };
+  run.samples = {stretched(1.0), stretched(s1)};
+  EXPECT_EQ(why(cell), "right");
+  // At rest while pulled: shorter than (not longer than) at rest.
+  run.samples.back() = stretched(1.0);
+  EXPECT_NE(why(cell).find("shorter than at rest"), std::string::npos) << why(cell);
+  // 10 % of the strain off the closed form (wrong), and 3 % (right).
+  run.samples.back() = stretched(1.0 + 0.9 * (s1 - 1.0));
+  EXPECT_NE(why(cell).find("uniaxial closed form"), std::string::npos) << why(cell);
+  run.samples.back() = stretched(1.0 + 1.03 * (s1 - 1.0));
+  EXPECT_EQ(why(cell), "right");
+  // The right state, but 10 % of the energy scale created: wrong, in any case.
+  run.energyGrowth = 0.1;
+  EXPECT_NE(why(cell).find("created 10 %"), std::string::npos) << why(cell);
+  EXPECT_NE(why(Cell{"whip", "stvk", "cotton", "backward_euler", 1e-2}).find("created 10 %"), std::string::npos);
+  run.energyGrowth = 0.01;
+  EXPECT_EQ(why(Cell{"whip", "stvk", "cotton", "backward_euler", 1e-2}), "right");
+}
+
 TEST(WorkPrecisionVariants, EveryIntegratorIsIncludedWithItsSettings) {
   const std::vector<Variant> variants = workPrecisionVariants(integratorNames(), false);
   for (const std::string& name : integratorNames()) {

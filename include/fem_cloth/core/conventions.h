@@ -16,6 +16,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 
 namespace fem_cloth {
 
@@ -39,5 +40,15 @@ template <int D>
 using ElementVector = Eigen::Matrix<double, 3 * D, 1>;
 template <int D>
 using ElementMatrix = Eigen::Matrix<double, 3 * D, 3 * D>;
+
+/// Standard gravity (m/s^2), the floor of the acceleration scale below.
+constexpr double kStandardGravity = 9.81;
+
+/// The acceleration that sets force and energy scales of a scene (m/s^2): its gravity, but at
+/// least standard gravity, so that a scene without gravity still has a scale (weight x size for
+/// energies, m_i a for the unbalanced forces a step may leave, the barrier stiffness of contact).
+inline double accelerationScale(double gravityNorm) {
+  return std::max(gravityNorm, kStandardGravity);
+}
 
 }  // namespace fem_cloth

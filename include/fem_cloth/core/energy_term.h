@@ -38,6 +38,17 @@ struct EvalResult {
   Index firstBadElement = -1;  ///< the first such element
 };
 
+/// Acceptance test (c) (integrators/acceptance.h): how far a term's worst element is from the
+/// validity range of its model.
+struct Validity {
+  double measure = 0.0;  ///< the model's validity measure at the worst element
+  double limit = std::numeric_limits<double>::infinity();  ///< its largest valid value
+  Index element = -1;    ///< the worst element (-1: none measured)
+  const char* what = "";  ///< what the measure is, for messages
+  const char* advice = "";  ///< what to do about it, for messages
+  bool ok() const { return !(measure > limit); }
+};
+
 class EnergyTerm {
  public:
   virtual ~EnergyTerm() = default;
@@ -51,6 +62,12 @@ class EnergyTerm {
   virtual EvalResult evaluate(const VectorX& x, const EvalRequest& request) = 0;
   /// True if the Hessian does not depend on x (quadratic terms).
   virtual bool hasConstantHessian() const { return false; }
+
+  /// True if the term's model is valid only in part of its domain (the linear membrane); only
+  /// then is validity() evaluated.
+  virtual bool hasValidityRange() const { return false; }
+  /// The element with the largest validity measure at x (see Validity).
+  virtual Validity validity(const VectorX& /*x*/) const { return {}; }
 
   // Constraint form, for solvers that visit one element at a time (XPBD): the energy of
   // element e is U_e = 1/2 C_e^T K_e C_e with k signed constraint functions C_e(x) (zero at

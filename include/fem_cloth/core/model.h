@@ -39,6 +39,7 @@ class Model {
 
   std::size_t numTerms() const { return terms_.size(); }
   EnergyTerm& term(std::size_t i) { return *terms_[i].term; }
+  const EnergyTerm& term(std::size_t i) const { return *terms_[i].term; }
   TermKind termKind(std::size_t i) const { return terms_[i].kind; }
 
   /// Sum over all terms. With request.hessian set, the pattern must come from hessianPattern().
@@ -52,6 +53,16 @@ class Model {
     double total() const { return membrane + bending + other; }
   };
   Energies energies(const VectorX& x);
+
+  /// Acceptance test (c): the first term whose worst element is outside its model's validity
+  /// range at x, or (all valid) the term closest to its limit; only terms with a range are
+  /// evaluated, so a model without one costs nothing.
+  struct TermValidity {
+    Validity validity;
+    int term = -1;  ///< the term's index (-1 when no term has a range)
+  };
+  bool hasValidityRanges() const { return hasValidityRanges_; }
+  TermValidity validity(const VectorX& x) const;
 
   /// The Hessian with the pattern of all terms (built on first use, then reused: the pattern
   /// depends on the topology only). Every term is bound to it.
@@ -69,6 +80,7 @@ class Model {
   VectorX dofMasses_;
   std::vector<Entry> terms_;
   std::unique_ptr<SparseHessian> hessian_;
+  bool hasValidityRanges_ = false;
 };
 
 }  // namespace fem_cloth

@@ -1,10 +1,12 @@
 // The simulator: state (x, v), pins and external forces as commands, one integrator, and the
 // energy bookkeeping that lets a run check its own energy balance.
 //
-// Every step either succeeds or leaves the state exactly as it was: a failed attempt
-// (non-finite values, no Newton convergence, explicit blow-up, an element leaving its material's
-// domain) is rolled back and retried with twice the substeps, up to maxRetries times; after that
-// step() returns the error and the simulator keeps its last good state. A refusal that more
+// Every step either succeeds or leaves the state exactly as it was. An attempt is accepted only
+// when it is right (integrators/acceptance.h): finite, converged by the unbalanced forces it
+// leaves, creating no energy beyond the work put in, and with every element inside its model's
+// domain and validity range. A failed attempt is rolled back and retried with twice the
+// substeps, up to maxRetries times; after that step() returns an error naming the test that
+// failed and by how much, and the simulator keeps its last good state. A refusal that more
 // substeps cannot change (StepReport::retryable false: symplectic Euler asked not to substep
 // past its stability bound, XPBD on a term without constraint form) is returned at once.
 #pragma once
@@ -24,16 +26,18 @@ struct SimulatorSettings {
   double dt = 1.0 / 60.0;  ///< s, the step taken by step()
   int minSubsteps = 1;     ///< substeps every step starts with
   int maxRetries = 4;      ///< rollbacks per step, each doubling the substeps
-  /// Enables the energy-growth guard of integrators that have one (symplectic Euler, XPBD:
-  /// Integrator::energyGrowthTolerance); off only for experiments that want to see a blow-up.
-  bool energyGuard = true;
+  /// The tests every attempt must pass (integrators/acceptance.h).
+  AcceptanceSettings acceptance;
 };
 
 /// Energies in joules. The balance error is the drift of
 ///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork - liveWork
 ///   + dissipated
-/// since the start (or the last reset); zero for the exact solution, numerical dissipation
-/// (implicit steppers, XPBD) or error otherwise.
+/// since the start (or the last reset); zero for the exact solution. It is split by the sign of
+/// each step's share: balanceError = created - numericalDissipation, where numericalDissipation
+/// is what the steps lost beyond the damping model (expected of the implicit schemes, XPBD and
+/// projective dynamics) and created what they gained (each step's gain is bounded by the
+/// acceptance, test (b); symplectic Euler's energy oscillates, so it has both).
 struct EnergyReport {
   double kinetic = 0.0;
   double strain = 0.0;
@@ -48,6 +52,12 @@ struct EnergyReport {
   double dissipated = 0.0;
   double total = 0.0;  ///< kinetic + strain + bending + gravity
   double balanceError = 0.0;
+  double numericalDissipation = 0.0;  ///< >= 0: lost by the steps that lost energy
+  double created = 0.0;               ///< >= 0: gained by the steps that gained energy
+  /// The run's energy scale of acceptance (b) (J): the larger of weight x size, the most
+  /// kinetic + elastic energy held and the work put in. The net energy created (balanceError
+  /// when positive) may not exceed AcceptanceSettings::runEnergyTolerance of it.
+  double energyScale = 0.0;
 };
 
 class Simulator {
@@ -64,6 +74,8 @@ class Simulator {
   ContactModel* contact() { return contact_.get(); }
   const ContactModel* contact() const { return contact_.get(); }
   const SimulatorSettings& settings() const { return settings_; }
+  /// Replaces the acceptance tests' settings (experiments only: see AcceptanceSettings).
+  void setAcceptance(const AcceptanceSettings& settings);
   const State& state() const { return state_; }
   double time() const { return state_.time; }
   int dim() const { return model_->dim(); }
@@ -117,20 +129,29 @@ class Simulator {
 
  private:
   Status checkVertex(Index vertex) const;
+  /// Kinetic + elastic - gravity . x at the current state (one energy evaluation).
   double mechanicalEnergy();
-  double energyScale(double mechanical) const;
   void rebuildExternalForce();
   void snapshotInitial();
+  StepInput stepInput(double dt);
+  /// Tests (a)-(c) of an attempt that the integrator reported done; fills `energy`.
+  Status accept(const StepReport& r, double energyStart, EnergyStep& energy);
+  /// Books an accepted step (energy account, pins, time).
+  void commit(const StepReport& r, const EnergyStep& energy, double dt);
 
   std::shared_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
   std::unique_ptr<ContactModel> contact_;
   SimulatorSettings settings_;
+  StepAcceptance acceptance_;
   State state_;
   State backup_;
-  // The energy guard's mechanical energy of state_, when known: the end of one guarded step is
-  // the start of the next (the state changes only in step, setInitialState and reset).
+  // The mechanical energy of state_, when known: the end of one step is the start of the next
+  // (the state changes only in step, setInitialState and reset).
   std::optional<double> energyNow_;
+  // The reference acceleration of test (a) (m/s^2): accelerationScale(|g|), or the mean
+  // acceleration the commanded forces give the cloth if larger (rebuildExternalForce).
+  double referenceAcceleration_ = kStandardGravity;
   VectorX gravityForce_;
   std::vector<char> pinned_;
   VectorX pinTarget_, pinVelocity_;  // pin positions now, and their velocities
@@ -148,6 +169,10 @@ class Simulator {
   VectorX initialPositions_;
   double initialTotal_ = 0.0;
   double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, dissipated_ = 0.0, liveWork_ = 0.0;
+  double numerical_ = 0.0, created_ = 0.0;
+  double heldMost_ = 0.0;  // the most kinetic + elastic energy an accepted step held (J)
+  /// The run's energy scale of acceptance (b), with the work and held energy of a step added.
+  double runEnergyScale(double held, double externalWork, double pinWork, double contactWork) const;
   double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.

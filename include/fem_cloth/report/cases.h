@@ -110,7 +110,12 @@ const std::vector<double>& stabilityDts();
 ///                of their triangles (quality ~1e-5; mesh.min_quality lowered to 1e-8), 0.1 s;
 ///   whip:        cloth hanging from one corner that is yanked out of plane at 100 m/s, 0.1 s;
 ///   slam:        cloth thrown flat at a floor (plane obstacle, friction 0.4) at 10 m/s from 5 cm
-///                above it, 0.1 s: contact at every dt.
+///                above it, 0.1 s: contact at every dt;
+///   strip:       the sudden-load strip of issue 11 (StripCase: its own 6 x 21 grid whatever n,
+///                0.4 x 0.1 m, 0.2 kg/m^2, first column pinned, 20 N along it on the last column,
+///                mass damping 30/s, no gravity), 0.5 s: settled to 6e-4 of its motion, so its
+///                end state is the static one and is checked against the uniaxial closed form
+///                (stability.h, "wrong"). It runs at the cotton level only (its E h = 1e4 N/m).
 /// Short horizons keep the matrix within its time budget: every case reaches its extreme within
 /// the horizon (the pulled and squashed ones are also let go and must recover). Each horizon is
 /// a whole number of every step of the matrix.
@@ -118,6 +123,14 @@ const std::vector<std::string>& extremeCaseNames();
 /// One line per case for tables and the docs.
 std::string extremeCaseDescription(const std::string& name);
 Expected<YAML::Node> extremeCase(const std::string& name, int n);
+
+/// The geometry and load of the "strip" case.
+struct StripCase {
+  static constexpr int rows = 6, cols = 21;
+  static constexpr double length = 0.4, width = 0.1;  ///< m, along and across the load
+  static constexpr double force = 20.0;               ///< N, total on the last column
+  static constexpr double thickness = 5e-4;           ///< m, as every case (baseSheet)
+};
 
 /// A cell of the stability matrix.
 struct Cell {

@@ -47,7 +47,7 @@ ContactModel::ContactModel(const Model& model, std::vector<Obstacle> obstacles,
   sHat_ = dHat * dHat;
   // The barrier force on a vertex of mass m at distance d is kappa m |b'(d^2)| 2 d; at d = dHat/2
   // it is to be m times the stiffness acceleration.
-  const double acceleration = settings_.stiffness > 0.0 ? settings_.stiffness : std::max(gravity, 9.81);
+  const double acceleration = settings_.stiffness > 0.0 ? settings_.stiffness : accelerationScale(gravity);
   kappa_ = acceleration / (std::abs(barrier::first(0.25 * sHat_, sHat_)) * dHat);
   edges_ = uniqueEdges(mesh_->triangles);
   double meanEdge = 0.0;

@@ -36,7 +36,8 @@ enum class ImplicitScheme { BackwardEuler, Bdf2 };
 struct NewtonSettings {
   int maxIterations = 50;
   /// Converged when the last full Newton step, as a velocity |dx|_inf / h, is below
-  /// tolerance x the rest bounding-box diagonal (a velocity error in cloth sizes per second).
+  /// tolerance x the rest bounding-box diagonal (a velocity error in cloth sizes per second)
+  /// and the forces are balanced (acceptance test (a), StepInput::residualScale).
   /// The default, 1e-3, allows 1.4e-5 m per 0.01 s step on a 1 m cloth: far below backward
   /// Euler's own truncation error (about g h^2 / 2 = 5e-4 m).
   double tolerance = 1e-3;
@@ -65,21 +66,49 @@ class ImplicitIntegrator final : public Integrator {
   /// on failure returns false with report.error set.
   bool substep(const StepInput& input, State& state, double h, int remaining,
                double fractionStart, double fractionEnd, VectorX& pinForce, StepReport& report);
-  double potential(const VectorX& x, double elastic) const;
-  void potentialGradient(const VectorX& x, const VectorX& elasticGradient, VectorX& out) const;
+  /// The scheme's coefficients and Phi's per-substep data (xhat, c^2, gamma, lagged stiffness).
+  void prepare(const StepInput& input, const State& state, double h);
+  /// The first Newton iterate x_ (with gElastic_ and phi_ at it); false if every candidate
+  /// leaves a material's domain.
+  bool startingPoint(const StepInput& input, const State& state, int remaining, StepReport& report);
+  /// Newton's iterations from x_ until converged; false (report.error set) if they fail.
+  bool newton(const StepInput& input, const State& state, double h, StepReport& report);
+  /// Assembles the Newton system at x_ and solves it for dx_.
+  bool newtonStep(StepReport& report);
+  /// The backtracking line search along dx_ from x_ (at most maxStep of it); true and x_ moved
+  /// if it found a decrease.
+  bool lineSearch(double maxStep, StepReport& report);
+  /// Elastic energy and gradient at x (+ the contact potential), into gradient.
+  EvalResult evaluate(const VectorX& x, VectorX& gradient);
+  /// Phi at x given the elastic energy there (damping included); +inf outside the domain.
+  double potential(const VectorX& x, double elastic);
+  /// dPhi/dx at x given the elastic gradient there (damping included).
+  void potentialGradient(const VectorX& x, const VectorX& elasticGradient, VectorX& out);
+  /// Acceptance test (a) at x_: the unbalanced forces g_ / c^2 against their scale.
+  ForceResidual residual(const StepInput& input, const State& state, double h);
+  /// Largest |g_i| / (m_i g c^2) over free DOFs: the merit of the round-off fallback.
+  double relativeGradient(const VectorX& g) const;
+  std::string residualText(const ForceResidual& r) const;
 
   ImplicitScheme scheme_;
   NewtonSettings settings_;
   std::unique_ptr<LinearSolver> solver_;
   // Per-substep data of Phi.
   const VectorX* mass_ = nullptr;
-  const VectorX* force_ = nullptr;
   double c2_ = 0.0, gamma_ = 0.0, alpha_ = 0.0, beta_ = 0.0;
   VectorX xhat_, xc_, forceTotal_;
   std::vector<double> laggedStiffness_;  // beta K0 values in the model's Hessian pattern
   double sizeScale_ = 0.0;  // rest bounding-box diagonal (m)
+  // Newton's state: the iterate, Phi and the elastic energy there (last evaluation).
+  VectorX x_, g_, gElastic_;
+  double phi_ = 0.0;
+  EvalResult eval_;
+  double lastFraction_ = 1.0;  // of dx_ the last line search took
+  const std::vector<char>* pinned_ = nullptr;
+  ContactModel* contact_ = nullptr;
+  Model* model_ = nullptr;
   // Scratch, sized once.
-  VectorX x_, g_, gElastic_, dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_;
+  VectorX dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_, unbalancedForce_, velocity_;
   // Contact: Hessian entries outside the model's pattern, and the system that includes them.
   std::vector<Eigen::Triplet<double>> outsidePattern_;
   LinearSolver::Matrix contactExtra_, contactSystem_;

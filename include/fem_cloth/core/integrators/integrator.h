@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/integrators/acceptance.h"
 #include "fem_cloth/core/model.h"
 
 namespace fem_cloth {
@@ -55,6 +56,9 @@ struct StepInput {
   /// Obstacles and self-contact (contact/contact_model.h); null when the scene has neither, and
   /// then no contact code runs at all.
   ContactModel* contact = nullptr;
+  /// What the unbalanced forces a solver leaves are measured against (acceptance.h, test (a)):
+  /// iterative solvers iterate until measureResidual() is within the tolerance.
+  ResidualScale residualScale;
 };
 
 /// What a step did. Counts add up over substeps and retries.
@@ -66,11 +70,17 @@ struct StepReport {
   bool retryable = true;
   int substeps = 0;
   int newtonIterations = 0;
-  double residual = 0.0;   ///< final Newton residual (N, max over free DOFs); 0 for explicit
+  /// The unbalanced force the solver left (acceptance test (a)), the worst over the substeps;
+  /// zero for symplectic Euler, which solves no equation.
+  ForceResidual unbalanced;
+  double residual = 0.0;   ///< largest unbalanced force (N, over free DOFs): unbalanced.largest
   int lineSearchBacktracks = 0;
   int rollbacks = 0;       ///< failed attempts that were undone and retried
   int iterations = 0;  ///< local solver iterations (XPBD sweeps, projective dynamics iterations)
   double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
+  /// Work of the pins on the cloth in this step (J): each substep's pin force (the one its
+  /// equations of motion hold at their end) times the pins' displacement in it.
+  double pinWork = 0.0;
   double dtUsed = 0.0;      ///< the (sub)step size of the last successful attempt (s)
   int contacts = 0;         ///< contacts at the end of the step (closer than the contact distance)
   std::uint64_t contactChecks = 0;  ///< distance evaluations for contact; 0 without contact
@@ -92,12 +102,13 @@ class Integrator {
                           VectorX& pinForce) = 0;
   /// Called when the topology, pins or stiffness change enough to redo set-up work.
   virtual void invalidate() {}
-  /// For steppers that can blow up: how much the mechanical energy (kinetic + elastic +
-  /// gravitational) may grow in one step beyond the work put in by forces and pins, as a
-  /// fraction of the energy scale (the larger of total weight x cloth size and the energy
-  /// itself). A step that grows more is rolled back and retried with more substeps. 0: no
-  /// guard (implicit steppers: their line search on the incremental potential rules growth out).
-  virtual double energyGrowthTolerance() const { return 0.0; }
+  /// Acceptance test (b): how much energy the last step may have created beyond the work put in
+  /// (forces, pins, contact) and the damping removed, as a fraction of the energy scale (the
+  /// larger of weight x cloth size, the energy the cloth holds and the work of the step). A
+  /// converged implicit step loses energy (numerical dissipation) and creates it only where the
+  /// energy is not convex, by a second-order amount; the default allows 1e-3 of the scale.
+  virtual double energyTolerance() const { return kEnergyTolerance; }
+  static constexpr double kEnergyTolerance = 1e-3;
 };
 
 }  // namespace fem_cloth

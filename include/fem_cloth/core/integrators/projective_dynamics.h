@@ -20,13 +20,18 @@
 #pragma once
 
 #include <Eigen/SparseCholesky>
+#include <array>
 
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
 
 struct ProjectiveDynamicsSettings {
-  int iterations = 10;      ///< local/global iterations per substep
+  /// Local/global iterations per substep before the forces are first checked; quasi-Newton
+  /// iterations follow until they balance (acceptance test (a)) or maxIterations (both kinds
+  /// together) are spent.
+  int iterations = 10;
+  int maxIterations = 500;
   double chebyshevRho = 0.0;  ///< spectral radius estimate for Chebyshev acceleration; 0: off
 };
 
@@ -46,6 +51,17 @@ class ProjectiveDynamics final : public Integrator {
   using Matrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
   /// Builds and factorises A on the free vertices, if the pin set or the step changed.
   bool prepare(const StepInput& input, double h, std::string* error);
+  /// `count` local/global iterations of the substep from state.x (Chebyshev continues).
+  void iterate(const StepInput& input, State& state, double h, int count);
+  /// Acceptance test (a) at x: backward Euler's unbalanced forces on the true energy (into
+  /// force_, which on pinned DOFs is what the pins supply); sets velocity_, and Phi(x) if asked.
+  ForceResidual residual(const StepInput& input, const VectorX& x, double h,
+                         double* potential = nullptr);
+  /// More iterations, by quasi-Newton, from state.x until the forces balance or maxIterations
+  /// are spent; returns the residual at the final state.x.
+  ForceResidual quasiNewton(const StepInput& input, State& state, double h, ForceResidual unbalanced);
+  /// z = A^-1 q on the free DOFs (zero on pinned ones), with the factor of solver_.
+  void applyInverse(const VectorX& q, VectorX& z);
 
   ProjectiveDynamicsSettings settings_;
   Matrix laplacian_;            // sum_i w_i S_i^T S_i, all vertices (built once)
@@ -68,7 +84,14 @@ class ProjectiveDynamics final : public Integrator {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> work_;
   VectorX tailWork_;
   // Scratch (sized once).
-  VectorX xhat_, rhs_, xPrev_, xPrevPrev_;
+  VectorX xhat_, rhs_, xPrev_, xPrevPrev_, vStart_, force_, velocity_;
+  double omega_ = 1.0;  // Chebyshev weight of the last iteration
+  // Quasi-Newton: the gradient, a direction, a trial point and the L-BFGS curvature pairs.
+  static constexpr int kMemory = 6;
+  VectorX g_, gTrial_, direction_, trial_;
+  std::array<VectorX, kMemory> s_, y_;
+  std::array<double, kMemory> rho_{}, alpha_{};
+  int iteration_ = 0;   // iterations of the substep so far
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rhsFree_, solFree_;
   Eigen::MatrixXd pinnedPositions_;
 };

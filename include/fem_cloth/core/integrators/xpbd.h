@@ -25,7 +25,10 @@
 namespace fem_cloth {
 
 struct XpbdSettings {
-  int iterations = 10;  ///< Gauss-Seidel sweeps per substep
+  /// Gauss-Seidel sweeps per substep before the forces are first checked; more follow, as many
+  /// at a time, until they balance (acceptance test (a)) or maxIterations are spent.
+  int iterations = 10;
+  int maxIterations = 100;
   int substeps = 1;     ///< substeps per step
 };
 
@@ -34,14 +37,23 @@ class Xpbd final : public Integrator {
   explicit Xpbd(XpbdSettings settings = {}) : settings_(settings) {}
   std::string name() const override { return "xpbd"; }
   bool needsHessian() const override { return false; }
-  /// Converged XPBD is backward Euler, which never gains energy; an unconverged Gauss-Seidel
-  /// sweep on stiff elements can, slowly, so the guard is tight.
-  double energyGrowthTolerance() const override { return 1e-3; }
   StepReport step(const StepInput& input, State& state, double dt, int minSubsteps,
                   VectorX& pinForce) override;
+  /// After a rollback or a new state, the next substep starts its displacements from zero.
+  void invalidate() override { lambdaStep_ = 0.0; }
 
  private:
   void cacheStiffness(Model& model);
+  /// Starts the elements' displacements of a substep of size h from the last substep's and
+  /// applies them to the predicted positions x (from zero after invalidate()).
+  void warmStart(Model& model, VectorX& x, double h, double dampedMass);
+  /// One Gauss-Seidel sweep over every element of every term; false (report.error set) if an
+  /// element leaves its domain.
+  bool sweep(Model& model, VectorX& x, double h, double betaH, StepReport& report);
+  /// Acceptance test (a) at x: the unbalanced force of XPBD's equations (elasticForce_ holds
+  /// the elastic and damping part, velocity_ the substep's velocities).
+  ForceResidual residual(const StepInput& input, const VectorX& x, double h, double dampedMass,
+                         double betaH);
   // Contact per substep (only with obstacles); kept out of step() (see xpbd.cpp).
   [[gnu::noinline]] void beginContactSubstep(ContactModel& contact, int substep, int substeps);
   [[gnu::noinline]] void finishContactSubstep(ContactModel& contact, VectorX& x, double h,
@@ -49,10 +61,13 @@ class Xpbd final : public Integrator {
 
   XpbdSettings settings_;
   VectorX xStart_, vStart_, inverseMass_;
+  VectorX xPredicted_, elasticForce_, unbalanced_, velocity_;
   std::uint64_t contactChecksBefore_ = 0;
   const Model* stiffnessModel_ = nullptr;
   std::vector<std::vector<double>> stiffness_;  // per term: K_e, row-major, per element
-  std::vector<std::vector<double>> lambda_;     // per term: multipliers, per element
+  std::vector<std::vector<double>> applied_;    // per term: W G^T lambda applied, per element
+  // The substep (s) and mass factor 1 + h alpha applied_ belongs to; 0: none (cold start).
+  double lambdaStep_ = 0.0, lambdaDampedMass_ = 1.0;
 };
 
 }  // namespace fem_cloth

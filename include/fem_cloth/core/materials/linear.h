@@ -3,6 +3,14 @@
 // (F^ = F for planar elements). The only model that is not rotation invariant: a rigid rotation
 // of the element is strained, and F = [[1, 0.5], [-0.5, 1]], which changes the area, is not.
 // Sifakis & Barbic 2012, section 3.2.
+//
+// Validity range: the linear strain is the Green strain E = sym(T^T H) + H^T H / 2 (H = F - T,
+// the displacement gradient) without its quadratic part, so the model holds only while H is
+// small. Accepted steps keep |H| (spectral norm) <= 0.1 in every element: a rotation of at most
+// 0.1 rad (|H| = 2 sin(theta / 2)), whose spurious strain 1 - cos(theta) is at most 0.5 %, and a
+// stretch of at most 10 %, where the neglected quadratic part is at most 5 % of the strain. Out of
+// its plane the model has no stiffness at all (a cloth folding or falling rotates far beyond it);
+// use a rotation-invariant model there.
 #pragma once
 
 #include "fem_cloth/core/materials/material.h"
@@ -17,6 +25,21 @@ class LinearElasticity : public MaterialBase {
 
   explicit LinearElasticity(const Lame& lame) : MaterialBase(lame) {}
 
+  static constexpr bool kHasValidityRange = true;
+  static constexpr double kValidityLimit = 0.1;
+  static constexpr const char* kValidityMeasure = "displacement gradient |F - T| (rotation and stretch)";
+  static constexpr const char* kValidityAdvice =
+      "the linear membrane holds for small deformations only; use a rotation-invariant model "
+      "(corotational, stvk, neo_hookean, ...) for large ones";
+  /// |F - T|, the largest singular value of the displacement gradient.
+  template <int D>
+  double validityMeasure(const DefGrad<D>& F, const DefGrad<D>& T) const {
+    const DefGrad<D> H = F - T;
+    const Eigen::Matrix2d G = H.transpose() * H;  // symmetric: its largest eigenvalue, closed form
+    const double mean = 0.5 * (G(0, 0) + G(1, 1));
+    const double half = 0.5 * (G(0, 0) - G(1, 1));
+    return std::sqrt(mean + std::sqrt(half * half + G(0, 1) * G(0, 1)));
+  }
 
   template <int D>
   double psi(const DefGrad<D>& F, const DefGrad<D>& T) const {

@@ -149,6 +149,11 @@ class MaterialBase {
   bool inDomain(const DefGrad<D>& /*F*/) const {
     return true;
   }
+  /// Whether the model describes the material only in part of its domain. A model with a range
+  /// also has kValidityLimit, kValidityMeasure and kValidityAdvice (for messages) and
+  /// validityMeasure<D>(F, T), valid while the measure is at most the limit; the acceptance of
+  /// a step checks it (integrators/acceptance.h, test (c)).
+  static constexpr bool kHasValidityRange = false;
 
  protected:
   double mu_;
