@@ -64,6 +64,7 @@ def convergence_figure(rows, path):
         ("Peirce strip, gamma 20", dict(validation="peirce", parameter="gamma=20", quantity="tip drop / l")),
         ("clamped plate", dict(validation="plate_clamped")),
         ("simply supported plate", dict(validation="plate_simply")),
+        ("clamped strip (beam)", dict(validation="beam_clamped")),
         ("pendulum period", dict(validation="pendulum")),
         ("hanging sheet, worst row", dict(validation="hanging_sheet", quantity="worst row's strain error / top strain")),
     ]
@@ -187,7 +188,7 @@ def main():
         machine = " ".join(line.strip() for line in f)
     tables = {
         "summary": summary_table(rows),
-        "convergence": convergence_table(rows, {"peirce", "plate_clamped", "plate_simply", "pendulum", "hanging_sheet"}),
+        "convergence": convergence_table(rows, {"peirce", "plate_clamped", "plate_simply", "beam_clamped", "pendulum", "hanging_sheet"}),
         "membrane": convergence_table(rows, {"tension"}),
         "models": models_table(args.out, rows),
     }

@@ -53,6 +53,7 @@ void Simulator::snapshotInitial() {
   initial_.forces = forces_;
   initialPositions_ = state_.x;
   externalWork_ = pinWork_ = contactWork_ = airWork_ = dissipated_ = liveWork_ = numerical_ = created_ = 0.0;
+  heldMost_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
@@ -97,6 +98,7 @@ void Simulator::reset() {
   integrator_->invalidate();
   if (contact_) contact_->reset();
   externalWork_ = pinWork_ = contactWork_ = airWork_ = dissipated_ = liveWork_ = numerical_ = created_ = 0.0;
+  heldMost_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   lastReport_ = StepReport();
@@ -127,6 +129,7 @@ void Simulator::continueFrom(Simulator& from) {
   dissipated_ = from.dissipated_;
   numerical_ = from.numerical_;
   created_ = from.created_;
+  heldMost_ = from.heldMost_;
   // What reset() goes back to is measured with the new parameters; the balance runs on
   // unbroken: the change's energy, the jump of the total here less that of the initial total.
   const double kinetic0 = 0.5 * initial_.state.v.dot(model_->dofMasses().cwiseProduct(initial_.state.v));
@@ -291,7 +294,19 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
   energy.contactWork = r.contactWork;
   energy.airWork = r.airWork;
   energy.dissipated = r.dissipated;
-  return acceptance_.energyConserved(energy, integrator_->energyTolerance(), sizeScale_);
+  if (Status s = acceptance_.energyConserved(energy, integrator_->energyTolerance(), sizeScale_); !s) {
+    return s;
+  }
+  const double runScale = runEnergyScale(energy.held, energy.externalWork, energy.pinWork,
+                                         energy.contactWork, energy.airWork);
+  return acceptance_.runEnergyConserved(created_ - numerical_, energy, runScale);
+}
+
+double Simulator::runEnergyScale(double held, double externalWork, double pinWork, double contactWork,
+                                 double airWork) const {
+  const double work = std::abs(externalWork_ + externalWork) + std::abs(pinWork_ + pinWork) +
+                      std::abs(contactWork_ + contactWork) + std::abs(airWork_ + airWork);
+  return std::max({sizeScale_, heldMost_, held, work});
 }
 
 void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt) {
@@ -306,6 +321,7 @@ void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt)
   } else {
     numerical_ -= created;
   }
+  heldMost_ = std::max(heldMost_, energy.held);
   energyNow_ = energy.end;
   if (contact_) contact_->commitStep();
   previousPinForce_ = pinForce_;
@@ -426,6 +442,7 @@ EnergyReport Simulator::energies() {
                    initialTotal_;
   e.numericalDissipation = numerical_;
   e.created = created_;
+  e.energyScale = runEnergyScale(0.0, 0.0, 0.0, 0.0, 0.0);
   return e;
 }
 

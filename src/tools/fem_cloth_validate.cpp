@@ -118,7 +118,7 @@ int main(int argc, char** argv) {
   fem_cloth::preferPassiveThreadWaiting(argv);
   CLI::App app{
       "fem_cloth_validate: fem_cloth against closed forms and published tables (docs/validation.md).\n"
-      "Cases: peirce, plate_clamped, plate_simply, tension, hanging_sheet, free_fall, pendulum, incline.\n"
+      "Cases: peirce, plate_clamped, plate_simply, beam_clamped, tension, hanging_sheet, free_fall, pendulum, incline.\n"
       "Prints case, parameter, resolution, value, reference, relative error, observed order, status."};
   std::vector<std::string> cases;
   std::vector<int> cells = {16};

@@ -254,6 +254,39 @@ Expected<std::vector<CaseRow>> plate(bool clamped, const CaseOptions& options) {
   return rows;
 }
 
+/// The clamp alone: a strip a x a/4 clamped at both ends (a ring of held cells at x <= 0 and
+/// x >= a, as the clamped plate's), free long edges, nu_b = 0, under a uniform load: cylindrical
+/// bending, the clamped-clamped Euler-Bernoulli beam w0 = q a^4 / (384 D). It isolates the
+/// clamp's closure from the plate's corners and twist (docs/validation.md).
+Expected<std::vector<CaseRow>> clampedStrip(const CaseOptions& options) {
+  const double a = 0.5, areal = 0.1, q = areal * kGravity, D = 25.0;
+  std::vector<CaseRow> rows;
+  for (int n : options.cells) {
+    const double h = a / n;
+    const int across = std::max(2, n / 4);
+    Scene s = sheet(n + 3, across + 1, a + 2 * h, across * h, Eigen::Vector3d(-h, 0, 0), 1e6, 0.0, areal);
+    s.name = "beam_clamped";
+    s.gravity = Eigen::Vector3d(0, 0, -kGravity);
+    s.bendingModel = options.bendingModel;
+    s.bendingStiffness = D;
+    s.bendingPoissonRatio = 0.0;
+    const double tol = 1e-9 * a;
+    pinWhere(s, [&](const Eigen::Vector3d& p) { return p.x() <= tol || p.x() >= a - tol; });
+    Expected<Simulation> sim = build(s, options);
+    if (!sim) return Error{sim.error()};
+    const StaticResult statics = solveStatics(*sim);
+    const int middle = s.grid.cols / 2;  // x = a / 2 (n even)
+    const Eigen::Vector3d centre =
+        meanPosition(*sim, s.grid.rows * s.grid.cols, [&](Index i) { return i % s.grid.cols == middle; });
+    CaseRow row = staticRow("beam_clamped", "nu_b=0", n, statics);
+    row.quantity = "centre deflection / (q a^4 / D)";
+    row.source = "clamped-clamped Euler-Bernoulli beam, 1/384";
+    setValue(row, -centre.z() * D / (q * a * a * a * a), 1.0 / 384.0);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Membrane: uniaxial tension, the hanging sheet
 // ---------------------------------------------------------------------------------------------
@@ -493,13 +526,15 @@ Expected<std::vector<CaseRow>> incline(const CaseOptions& options) {
     row.parameter = format("slope_deg", degrees);
     row.step = s.dt;
     if (std::tan(alpha) < mu) {
-      row.quantity = "mean sliding speed after settling (m/s)";
-      row.source = "sticks below atan(mu): 0 (smoothed friction creeps below friction_velocity)";
-      row.value = (x - xSettle) / (duration - settle);
-      row.reference = 0.0;
-      row.error = std::abs(row.value) / s.contact.frictionVelocity;
-      row.note = "error = speed / friction_velocity";
-      row.tolerance = 1.0;
+      // Sticking, as IPC's smoothed Coulomb friction sticks (docs/contact.md): below
+      // friction_velocity eps the force is mu N f1(u), f1(u) = 2u - u^2 (u = v / eps), so the
+      // cloth creeps at the u where mu f1(u) = tan a: v = eps (1 - sqrt(1 - tan a / mu)) < eps.
+      // A check of "sticks" that also sees mu (5 % more mu at 20 deg: 9 % less creep).
+      const double eps = s.contact.frictionVelocity;
+      row.quantity = "creep speed after settling (m/s)";
+      row.source = "sticks: IPC's smoothed friction, eps (1 - sqrt(1 - tan a / mu))";
+      setValue(row, (x - xSettle) / (duration - settle), eps * (1.0 - std::sqrt(1.0 - std::tan(alpha) / mu)));
+      row.tolerance = 0.03;
     } else {
       row.quantity = "acceleration along the slope (m/s^2)";
       row.source = "g (sin a - mu cos a)";
@@ -514,9 +549,9 @@ Expected<std::vector<CaseRow>> incline(const CaseOptions& options) {
 }  // namespace
 
 const std::vector<std::string>& caseNames() {
-  static const std::vector<std::string> names = {"peirce",  "plate_clamped", "plate_simply",
-                                                 "tension", "hanging_sheet", "free_fall",
-                                                 "pendulum", "incline"};
+  static const std::vector<std::string> names = {"peirce",   "plate_clamped", "plate_simply",
+                                                 "beam_clamped", "tension", "hanging_sheet",
+                                                 "free_fall", "pendulum", "incline"};
   return names;
 }
 
@@ -524,6 +559,7 @@ Expected<std::vector<CaseRow>> runCase(const std::string& name, const CaseOption
   if (name == "peirce") return peirce(options);
   if (name == "plate_clamped") return plate(true, options);
   if (name == "plate_simply") return plate(false, options);
+  if (name == "beam_clamped") return clampedStrip(options);
   if (name == "tension") return tension(options);
   if (name == "hanging_sheet") return hangingSheet(options);
   if (name == "free_fall") return freeFall(options);

@@ -386,3 +386,30 @@ TEST(EnergyTest, BoundsTheEnergyCreatedAndNeverAcceptsANonFiniteEnergy) {
   e.end = e.held = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(acceptance.energyConserved(e, 0.5, 1.0).ok());
 }
+
+// Test (b) over the run: the net energy the accepted steps created (their created() summed, the
+// balance error) plus this step's, against 5 % of the run's energy scale. A step that creates
+// little is refused once the run has created nearly the bound (slow growth that every step's own
+// bound let through: symplectic Euler on the small stability matrix's pull_corner and squash
+// cells created 7-99 % of their scale that way), and a run that lost energy before has room.
+TEST(EnergyTest, BoundsTheEnergyCreatedOverTheRun) {
+  const StepAcceptance acceptance;
+  EXPECT_DOUBLE_EQ(acceptance.settings().runEnergyTolerance, 0.05);
+  EnergyStep e;
+  e.start = 10.0;
+  e.end = 10.01;  // 0.01 J created in this step
+  e.held = e.end;
+  const double runScale = 20.0;  // bound 0.05 x 20 = 1 J
+  EXPECT_TRUE(acceptance.runEnergyConserved(0.0, e, runScale).ok());
+  EXPECT_TRUE(acceptance.runEnergyConserved(0.98, e, runScale).ok());  // 0.99 J <= 1 J
+  const Status over = acceptance.runEnergyConserved(0.995, e, runScale);  // 1.005 J > 1 J
+  ASSERT_FALSE(over.ok());
+  EXPECT_NE(over.error().find("energy created over the run"), std::string::npos) << over.error();
+  EXPECT_NE(over.error().find("5 % of the run's energy scale 20 J"), std::string::npos) << over.error();
+  EXPECT_TRUE(acceptance.runEnergyConserved(-3.0, e, runScale).ok());  // lost 3 J before
+  e.end = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(acceptance.runEnergyConserved(0.0, e, runScale).ok());
+  AcceptanceSettings off;
+  off.energy = false;
+  EXPECT_TRUE(StepAcceptance(off).runEnergyConserved(0.995, EnergyStep{10.0, 10.01, 10.01}, runScale).ok());
+}

@@ -128,26 +128,35 @@ TEST(Claims, SymplecticEulerErrorIsSetByItsSubstepNotByDt) {
   }
 }
 
-// XPBD at a fixed iteration count: its error falls with dt more slowly than backward Euler's
-// (each substep's Gauss-Seidel solve is left unconverged, and that error does not shrink with
-// dt), and with many iterations it comes close to backward Euler, the equations it solves when
-// converged (Macklin et al. 2016). The gap is not monotone in the iteration count on this scene
-// (16 iterations are further from backward Euler than 4), so only "64 iterations are at least
-// twice as close as 4 or 16" is claimed.
-TEST(Claims, XpbdConvergesToBackwardEulerNotToTheSolution) {
+// XPBD solves the backward Euler equations when converged (Macklin et al. 2016). Since issue 11
+// it does not stop at a fixed iteration count: it sweeps on until the forces balance to 1 % of
+// each vertex's weight, inertia and load (acceptance test (a)), or substeps. So the iteration
+// count no longer sets its result (the earlier claim, "64 iterations are twice as close to
+// backward Euler as 4", described unconverged solves that are now refused): 4, 16 and 64
+// iterations end within 1 % of backward Euler's own error of each other. And since its accepted
+// substeps solve backward Euler's equations at a substep no longer than dt, it is no less
+// accurate than backward Euler at the same dt (5 % slack for the 1 % residual it may leave).
+TEST(Claims, XpbdSolvesBackwardEulerWhateverItsIterationCount) {
   const AccuracyScene& s = scene("hanging_cloth");
   const Study be = study(s, {"integrator.name=backward_euler"});
   const Study xpbd = study(s, {"integrator.name=xpbd", "integrator.iterations=4"});
-  EXPECT_LT(xpbd.order, be.order - 0.2);
-  const double dt = s.dts.back();
-  const RunResult b = runWith(s, {"integrator.name=backward_euler", "integrator.newton_tolerance=1e-7"}, dt);
-  std::map<int, double> gap;
-  for (int iterations : {4, 16, 64}) {
-    const RunResult x = runWith(s, {"integrator.name=xpbd", "integrator.iterations=" + std::to_string(iterations)}, dt);
-    gap[iterations] = positionErrors(x.samples, b.samples, b.dim, b.clothSize).rmsEnd;
-    std::cout << "xpbd " << iterations << " it vs backward Euler at dt " << dt << ": " << gap[iterations] << '\n';
+  for (std::size_t i = 0; i < be.errors.size(); ++i) {
+    EXPECT_LE(xpbd.errors[i], 1.05 * be.errors[i]) << "dt " << be.dts[i];
   }
-  EXPECT_LT(2.0 * gap[64], std::min(gap[4], gap[16]));
+  const double dt = s.dts.back();
+  const std::size_t last = be.errors.size() - 1;
+  std::map<int, RunResult> runs;
+  for (int iterations : {4, 16, 64}) {
+    runs.emplace(iterations, runWith(s, {"integrator.name=xpbd", "integrator.iterations=" + std::to_string(iterations)}, dt));
+    ASSERT_EQ(runs.at(iterations).outcome, RunResult::Outcome::Completed) << runs.at(iterations).error;
+  }
+  for (int iterations : {4, 16}) {
+    const RunResult& x = runs.at(iterations);
+    const double gap = positionErrors(x.samples, runs.at(64).samples, x.dim, x.clothSize).rmsEnd;
+    std::cout << "xpbd " << iterations << " it vs 64 it at dt " << dt << ": " << gap << " (backward Euler's error "
+              << be.errors[last] << ")\n";
+    EXPECT_LT(gap, 0.01 * be.errors[last]) << iterations;
+  }
 }
 
 // Positions of a cloth without bending stiffness are only predictable until it folds: after
@@ -192,26 +201,42 @@ std::vector<std::string> generalIntegrators() {
 // Cells the matrix marks stable or recovered stay finite and bounded, re-run here: on the
 // near-degenerate mesh at 1000x stiffness and dt = 1/30 s the implicit methods create no energy
 // where no pin moves (the balance error never grows: their line search only lowers the
-// incremental potential) and finish, some after rollbacks. The rotation-invariant materials keep
-// edges within 5 % of their length; the linear model is not rotation invariant (its strain
-// (F + F^T)/2 - I grows under a rotation), so the sagging cloth stretches more with it.
+// incremental potential) and finish, some after rollbacks, keeping edges within 5 % of their
+// length. Two cells changed with issue 11, both refusals by a test of the acceptance:
+// - linear: the sagging cloth rotates its elements (the linear strain (F + F^T)/2 - I is not
+//   rotation invariant), |F - T| reaches ~0.2, twice the model's validity limit 0.1 (test c);
+//   it used to be accepted with an extra stretch that no material has;
+// - BDF2 on Neo-Hookean: on the slivers (quality 1e-5) at 1000x stiffness its Newton solve
+//   does not balance the forces (test a) even at 32 substeps; it used to be accepted after a short
+//   last Newton step with the forces unbalanced. Backward Euler converges there.
+// Symplectic Euler on the whip (a pin at 100 m/s) creates no energy beyond 5 % of the run's scale
+// (acceptance b over the run; it used to end "wrong", 30 % created).
 TEST(Claims, StableCellsStayFiniteAndBounded) {
   for (const std::string integrator : {"backward_euler", "bdf2"}) {
     for (const std::string& material : materialNames()) {
       const CellResult r = cell("degenerate", material, "1000x", integrator, 1.0 / 30.0);
+      if (material == "linear") {
+        EXPECT_EQ(r.verdict, "failed") << integrator;
+        EXPECT_TRUE(contains(r.run.error, "outside the validity range") && contains(r.run.error, "|F - T|"))
+            << r.run.error;
+        continue;
+      }
+      if (integrator == "bdf2" && material == "neo_hookean") {
+        EXPECT_EQ(r.verdict, "failed");
+        EXPECT_TRUE(contains(r.run.error, "Newton did not converge") && contains(r.run.error, "unbalanced force"))
+            << r.run.error;
+        continue;
+      }
       EXPECT_TRUE(r.verdict == "stable" || r.verdict == "recovered")
           << integrator << " " << material << ": " << r.run.error;
       EXPECT_LE(r.run.energyGrowth, 1e-6) << integrator << " " << material;
-      if (material != "linear") {
-        EXPECT_LT(r.run.maxStretch, 0.05) << integrator << " " << material;
-      } else {
-        EXPECT_TRUE(std::isfinite(r.run.maxStretch));
-      }
+      EXPECT_LT(r.run.maxStretch, 0.05) << integrator << " " << material;
     }
   }
   for (const std::string& integrator : generalIntegrators()) {
     const CellResult r = cell("whip", "stable_neo_hookean", "cotton", integrator, 1e-3);
     EXPECT_TRUE(r.verdict == "stable" || r.verdict == "recovered") << integrator << ": " << r.run.error;
+    EXPECT_LE(r.run.energyGrowth, kWrongEnergyGrowth) << integrator;
     EXPECT_TRUE(std::isfinite(r.run.maxStretch));
   }
 }
@@ -370,30 +395,33 @@ TEST(Claims, InversionAwareModelsHaveARidgeAtAPureReflection) {
 // --- Projective dynamics --------------------------------------------------------------------
 
 // Projective dynamics minimises backward Euler's incremental potential by local/global
-// iterations, each of which lowers it (Bouaziz et al. 2014, sec. 4): at a fixed dt, more
-// iterations bring it closer to backward Euler on the same ARAP scene; unconverged, the cloth
-// is softer than its material, so even 20 iterations leave it further from the reference than
-// backward Euler at the same dt. Checked on the small hanging_arap scene at dt = 1/60 s.
-TEST(Claims, ProjectiveDynamicsApproachesBackwardEulerWithIterations) {
+// iterations, each of which lowers it (Bouaziz et al. 2014, sec. 4). Since issue 11 it goes on
+// from there (quasi-Newton on the true gradient) until the forces balance to 1 % of each
+// vertex's weight, inertia and load (acceptance test (a)), so integrator.iterations no longer
+// sets the result: with 5, 10 or 20 it ends at backward Euler's solution of the same step. (The
+// earlier claim, "more iterations come closer to backward Euler; unconverged the cloth is softer",
+// described unbalanced states that are now refused.) Bound: 3 % of backward Euler's own error
+// against the reference, three times the force tolerance (a residual of 1 % of the force scale
+// moves the state by about 1 % of what that force moves it in a step). Checked on the small
+// hanging_arap scene at dt = 1/60 s.
+TEST(Claims, ProjectiveDynamicsEndsAtBackwardEulerWhateverItsIterations) {
   const AccuracyScene& s = scene("hanging_arap");
   const double dt = 1.0 / 60.0;
   const RunResult& ref = reference(s);
   const RunResult be = runWith(s, {"integrator.name=backward_euler", "integrator.newton_tolerance=1e-7"}, dt);
   ASSERT_EQ(be.outcome, RunResult::Outcome::Completed) << be.error;
   const double beError = positionErrors(be.samples, ref.samples, ref.dim, ref.clothSize).rmsEnd;
-  std::map<int, double> gap, error;
   for (int iterations : {5, 10, 20}) {
     const RunResult pd = runWith(s, {"integrator.name=projective_dynamics",
                                      "integrator.iterations=" + std::to_string(iterations)}, dt);
     ASSERT_EQ(pd.outcome, RunResult::Outcome::Completed) << pd.error;
-    gap[iterations] = positionErrors(pd.samples, be.samples, be.dim, be.clothSize).rmsEnd;
-    error[iterations] = positionErrors(pd.samples, ref.samples, ref.dim, ref.clothSize).rmsEnd;
-    std::cout << "pd " << iterations << " it: gap to backward Euler " << gap[iterations]
-              << ", error " << error[iterations] << " (backward Euler " << beError << ")\n";
+    const double gap = positionErrors(pd.samples, be.samples, be.dim, be.clothSize).rmsEnd;
+    const double error = positionErrors(pd.samples, ref.samples, ref.dim, ref.clothSize).rmsEnd;
+    std::cout << "pd " << iterations << " it: gap to backward Euler " << gap << ", error " << error
+              << " (backward Euler " << beError << ")\n";
+    EXPECT_LT(gap, 0.03 * beError) << iterations;
+    EXPECT_NEAR(error, beError, 0.03 * beError) << iterations;
   }
-  EXPECT_LT(gap[10], gap[5]);
-  EXPECT_LT(gap[20], gap[10]);
-  EXPECT_GT(error[20], beError);
 }
 
 // Projective dynamics takes ARAP cloth only: its cells with any other material, or on the
@@ -407,15 +435,21 @@ TEST(Claims, ProjectiveDynamicsCellsAreNotApplicableOutsideArapCloth) {
   EXPECT_TRUE(contains(planar.run.error, "dim 3")) << planar.run.error;
 }
 
-// Where it applies, projective dynamics is stable in every cell of the matrix: its global
-// step is a constant SPD solve and its local step a projection (Bouaziz et al. 2014), so a
-// step cannot fail; the stiffest, coarsest cells are re-run here.
-TEST(Claims, ProjectiveDynamicsIsStableOnArapCloth) {
+// Projective dynamics' global step is a constant SPD solve and its local step a projection
+// (Bouaziz et al. 2014): its iterations cannot diverge, which the matrix used to count as
+// "stable" on every ARAP cell. But on the stiffest, coarsest cells (1000x, dt = 1/30 s) they
+// stopped far from balance — an unbalanced force of hundreds of times a vertex's weight, a state
+// no physics produces. Since issue 11 such a step is refused (acceptance test (a)), after
+// substeps, naming the force left; the stable verdict is kept for where PD balances the forces.
+TEST(Claims, ProjectiveDynamicsRefusesWhatItCannotBalance) {
   for (const std::string c : {"pull_corner", "degenerate", "whip"}) {
     const CellResult r = cell(c, "arap", "1000x", "projective_dynamics", 1.0 / 30.0);
-    EXPECT_EQ(r.verdict, "stable") << c << ": " << r.run.error;
-    EXPECT_TRUE(std::isfinite(r.run.maxStretch)) << c;
+    EXPECT_EQ(r.verdict, "failed") << c;
+    EXPECT_TRUE(contains(r.run.error, "not converged") && contains(r.run.error, "unbalanced force"))
+        << c << ": " << r.run.error;
   }
+  const CellResult strip = cell("strip", "arap", "cotton", "projective_dynamics", 1e-2);
+  EXPECT_TRUE(strip.verdict == "stable" || strip.verdict == "recovered") << strip.run.error;
 }
 
 // Contact cells (slam: a cloth thrown at a floor at 10 m/s). The claims: every integrator that

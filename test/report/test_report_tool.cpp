@@ -93,7 +93,11 @@ TEST_F(ReportTool, SmallReportRunsEndToEnd) {
   EXPECT_NE(result_->out.find("== Stability matrix"), std::string::npos) << result_->out;
 }
 
-// Every integrator the scene format knows is in the study, without naming it here.
+// Every integrator the scene format knows is in the study, without naming it here, and completes
+// on every scene at some step. Since issue 11 a run whose steps the acceptance refuses is a
+// measurement too ("failed", with the refusal): XPBD at the two larger steps on stiff_cloth and
+// at 1/30 s on hanging_arap cannot balance the forces even at 16x the substeps (it used to
+// complete there, unbalanced). Such a row must name the acceptance test that refused it.
 TEST_F(ReportTool, EveryIntegratorIsMeasuredOnEveryScene) {
   ASSERT_EQ(result_->status, 0) << result_->err;
   const auto rows = readCsv(out_ + "/work_precision.csv");
@@ -102,12 +106,19 @@ TEST_F(ReportTool, EveryIntegratorIsMeasuredOnEveryScene) {
   for (const auto& r : rows) scenes.insert(r.at("scene"));
   for (const std::string& scene : scenes) {
     for (const std::string& integrator : integratorNames()) {
-      int found = 0;
+      int found = 0, completed = 0;
       for (const auto& r : rows) {
         if (r.at("scene") != scene || r.at("integrator") != integrator) continue;
         ++found;
-        EXPECT_TRUE(r.at("status") == "ok" || r.at("status") == "n/a")
-            << scene << " " << integrator << ": " << r.at("status") << " " << r.at("error");
+        const std::string& error = r.at("error");
+        const bool refused = r.at("status") == "failed" &&
+                             (error.find("not converged") != std::string::npos ||
+                              error.find("Newton did not converge") != std::string::npos ||
+                              error.find("energy created") != std::string::npos ||
+                              error.find("outside the validity range") != std::string::npos);
+        if (r.at("status") == "ok" || r.at("status") == "n/a") ++completed;
+        EXPECT_TRUE(r.at("status") == "ok" || r.at("status") == "n/a" || refused)
+            << scene << " " << integrator << ": " << r.at("status") << " " << error;
         if (r.at("status") == "ok") {
           EXPECT_GT(std::stod(r.at("wall_s")), 0.0);
           EXPECT_GE(std::stod(r.at("rms_over_time")), std::stod(r.at("rms_end")));
@@ -115,6 +126,7 @@ TEST_F(ReportTool, EveryIntegratorIsMeasuredOnEveryScene) {
         }
       }
       EXPECT_GT(found, 0) << scene << " " << integrator;
+      EXPECT_GT(completed, 0) << scene << " " << integrator;
     }
   }
   const auto references = readCsv(out_ + "/references.csv");
@@ -130,17 +142,14 @@ TEST_F(ReportTool, StabilityCellsAreClassifiedAndNeverNonFinite) {
   const auto cells = readCsv(out_ + "/stability.csv");
   // The small matrix: 3 cases (pull_corner, squash, strip) x 2 materials x 1 stiffness x every
   // integrator x 2 steps. No cell is non-finite, and none is "wrong" (accepted but violating the
-  // energy balance or the strip's closed form): "stable" and "recovered" mean correct — except a
-  // known, open bug: symplectic Euler's acceptance (its energy bound, 2 s / (1 - s) of the energy
-  // scale per step) lets the violent pull_corner and squash runs create 7-99 % of their scale, so
-  // those of its cells are "wrong" (docs/accuracy.md). Any other wrong cell fails here.
+  // energy balance or the strip's closed form): "stable" and "recovered" mean correct. (Until the
+  // acceptance bounded the energy created over the run, symplectic Euler's pull_corner and squash
+  // cells were wrong: 7-99 % of their energy scale created, each step within its own bound.)
   EXPECT_EQ(cells.size(), 3u * 2u * 1u * integratorNames().size() * 2u);
   const std::set<std::string> verdicts = {"stable", "recovered", "failed", "n/a", "too_slow"};
   int strips = 0;
   for (const auto& c : cells) {
-    const bool knownWrong = c.at("verdict") == "wrong" && c.at("integrator") == "symplectic_euler" &&
-                            (c.at("case") == "pull_corner" || c.at("case") == "squash");
-    EXPECT_TRUE(verdicts.count(c.at("verdict")) || knownWrong)
+    EXPECT_TRUE(verdicts.count(c.at("verdict")))
         << c.at("verdict") << ": " << c.at("case") << " " << c.at("material") << " " << c.at("integrator")
         << " dt " << c.at("dt") << ": " << c.at("error");
     if (c.at("case") == "strip") ++strips;

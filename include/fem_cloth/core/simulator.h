@@ -54,8 +54,12 @@ struct EnergyReport {
   double dissipated = 0.0;
   double total = 0.0;  ///< kinetic + strain + bending + gravity
   double balanceError = 0.0;
-  double numericalDissipation = 0.0;  ///< >= 0
-  double created = 0.0;               ///< >= 0
+  double numericalDissipation = 0.0;  ///< >= 0: lost by the steps that lost energy
+  double created = 0.0;               ///< >= 0: gained by the steps that gained energy
+  /// The run's energy scale of acceptance (b) (J): the larger of weight x size, the most
+  /// kinetic + elastic energy held and the work put in. The net energy created (balanceError
+  /// when positive) may not exceed AcceptanceSettings::runEnergyTolerance of it.
+  double energyScale = 0.0;
 };
 
 class Simulator {
@@ -173,6 +177,10 @@ class Simulator {
   double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, airWork_ = 0.0, dissipated_ = 0.0;
   double liveWork_ = 0.0;
   double numerical_ = 0.0, created_ = 0.0;
+  double heldMost_ = 0.0;  // the most kinetic + elastic energy an accepted step held (J)
+  /// The run's energy scale of acceptance (b), with the work and held energy of a step added.
+  double runEnergyScale(double held, double externalWork, double pinWork, double contactWork,
+                        double airWork) const;
   double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.

@@ -9,6 +9,8 @@
 //   plate_simply   square plate, simply supported, uniform load: w0 = 0.00406235 q a^4 / D
 //                  (Timoshenko & Woinowsky-Krieger 1959, tables 8 and 35: 0.00406, 0.00126; more
 //                  digits from Navier's series, summed here, and Taylor & Govindjee 2004)
+//   beam_clamped   a strip clamped at both ends, free long edges, uniform load (reported): the
+//                  clamped-clamped beam q a^4 / (384 D), the clamp's closure on its own
 //   tension        uniaxial tension of a strip, every material model, nu = 0 (finite strain)
 //                  and nu = 0.3 (small strain): stretch and contraction against uniaxial.h
 //   hanging_sheet  a sheet hanging from its whole top edge: strain rho g (L - y) / (E h)

@@ -80,6 +80,20 @@ Status StepAcceptance::energyConserved(const EnergyStep& energy, double toleranc
   return Error{msg.str()};
 }
 
+Status StepAcceptance::runEnergyConserved(double createdBefore, const EnergyStep& energy,
+                                          double runScale) const {
+  if (!settings_.energy) return Status::success();
+  const double created = createdBefore + energy.created();
+  const double bound = settings_.runEnergyTolerance * runScale;
+  if (created <= bound) return Status::success();
+  std::ostringstream msg;
+  msg << "energy created over the run: with this step the cloth would hold " << created
+      << " J more than the work done on it since the start less what damping removed (" << energy.created()
+      << " J of it in this step; bound " << bound << " J, " << 100.0 * settings_.runEnergyTolerance
+      << " % of the run's energy scale " << runScale << " J)";
+  return Error{msg.str()};
+}
+
 Status StepAcceptance::valid(Model& model, const VectorX& x) const {
   if (!settings_.validity || !model.hasValidityRanges()) return Status::success();
   const Model::TermValidity v = model.validity(x);

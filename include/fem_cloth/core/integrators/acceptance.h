@@ -20,6 +20,11 @@
 //      the energy scale (the larger of weight x size, the energy the cloth holds and the work of
 //      the step). What is lost beyond the damping model is numerical dissipation, expected of the
 //      implicit schemes and booked as its own term (EnergyReport::numericalDissipation).
+//      Over the run too: the net energy the accepted steps created since the start (the balance
+//      error) may not exceed runEnergyTolerance (5 %) of the run's energy scale (the larger of
+//      weight x size, the most the cloth held and the work put in so far). A stable scheme's
+//      error oscillates without drift (symplectic Euler's modified energy, Hairer, Lubich &
+//      Wanner IX.8); slow growth, which stays under the per-step bound, is caught here.
 //  (c) Valid: every element is inside its model's validity range (EnergyTerm::validity; the
 //      linear membrane's small-deformation range, materials/linear.h). Models without a range
 //      cost nothing here. (Domains, such as Neo-Hookean's J > 0, are enforced by the solvers.)
@@ -70,6 +75,8 @@ struct AcceptanceSettings {
   /// (a blow-up, a linear membrane far outside its range); never in normal use.
   bool energy = true;
   bool validity = true;
+  /// (b) over the run: net energy created since the start / the run's energy scale.
+  double runEnergyTolerance = 0.05;
 };
 
 /// The energy account of one attempt (J), as the simulator books it.
@@ -92,6 +99,9 @@ class StepAcceptance {
   Status converged(const StepReport& report, int dim) const;
   /// (b) energy.created() against tolerance x scale, scale = max(sizeScale, held, |work()|).
   Status energyConserved(const EnergyStep& energy, double tolerance, double sizeScale) const;
+  /// (b) over the run: createdBefore (net, J, the accepted steps') + energy.created() against
+  /// runEnergyTolerance x runScale.
+  Status runEnergyConserved(double createdBefore, const EnergyStep& energy, double runScale) const;
   /// (c) Every element of the model inside its validity range at x.
   Status valid(Model& model, const VectorX& x) const;
 
