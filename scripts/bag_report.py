@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Summarises a fem_cloth bag and renders what happened in it.
 
     bag_report.py RUN.bag [--out DIR] [--snapshots N] [--node /fem_cloth_node]

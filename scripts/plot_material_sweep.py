@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Plots the CSV written by `fem_cloth_materials sweep`: psi(s) and P22(s) along F = diag(1, s),
 one line per material model, with the collapse (s = 0) and planar inversion (s < 0) marked.
 

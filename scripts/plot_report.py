@@ -1,4 +1,4 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Plots the CSV files written by `fem_cloth_report` (scripts/report runs it).
 
     plot_report.py DIR [--out DIR]

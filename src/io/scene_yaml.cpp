@@ -9,6 +9,7 @@
 #include <set>
 #include <sstream>
 
+#include "fem_cloth/core/package_paths.h"
 #include "fem_cloth/core/text_file.h"
 
 namespace fem_cloth {
@@ -404,8 +405,16 @@ Expected<YAML::Node> withMaterialPreset(const YAML::Node& document, const std::s
   const std::string value = name.Scalar();
   const bool isFile = value.find('/') != std::string::npos ||
                       (value.size() > 5 && value.compare(value.size() - 5, 5, ".yaml") == 0);
-  const char* env = std::getenv("FEM_CLOTH_MATERIALS_DIR");
-  const std::filesystem::path folder = env != nullptr && *env != '\0' ? env : FEM_CLOTH_MATERIALS_DIR;
+  // The package's config/materials, found from the program's location (core/package_paths.h:
+  // no source path compiled into this installed library), unless the environment names one.
+  std::filesystem::path folder;
+  if (const char* env = std::getenv("FEM_CLOTH_MATERIALS_DIR"); env != nullptr && *env != '\0') {
+    folder = env;
+  } else if (!isFile) {
+    const Expected<std::filesystem::path> found = findPackageFile("config/materials");
+    if (!found) return Error{"material.preset '" + value + "': " + found.error() + " (or set $FEM_CLOTH_MATERIALS_DIR)"};
+    folder = *found;
+  }
   const std::filesystem::path path =
       isFile ? std::filesystem::path(sourcePath).parent_path() / value : folder / (value + ".yaml");
   std::error_code missing;

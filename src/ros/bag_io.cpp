@@ -276,7 +276,11 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
 
 std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt) {
   if (run.states.empty()) return std::nullopt;
-  const RecordedState& s = run.states.front();
+  // The first state after step 0: a node paused from the start moves its origin to ROS time
+  // until its first step (docs/node.md, Time), so a step-0 state recorded earlier can be
+  // stamped before it.
+  const auto stepped = std::find_if(run.states.begin(), run.states.end(), [](const RecordedState& r) { return r.step > 0; });
+  const RecordedState& s = stepped != run.states.end() ? *stepped : run.states.back();
   // Only an origin that ros::Time can hold (a state whose step does not fit its stamp and dt
   // has none); Time - Duration keeps the exact nanoseconds of the stamp where it can.
   const double back = static_cast<double>(s.step) * dt;

@@ -495,8 +495,7 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
     if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
       StepStats stats = statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_);
-      stats.pin_commands = toMsg(commandCounts(CommandTopic::Pin));
-      stats.force_commands = toMsg(commandCounts(CommandTopic::Force));
+      setCommandStats(stats, [this](CommandTopic topic) { return commandCounts(topic); });
       statsPub_.publish(stats);
     }
     publishPinReactions();
@@ -612,11 +611,27 @@ void ClothNode::publishDiagnostics(bool force) {
   diagnosticsPub_.publish(array);
 }
 
+void ClothNode::waitForRosTime() {
+  // With use_sim_time, ROS time is zero until the first /clock. A /use_sim_time left true by an
+  // earlier replay (or a rosbag play started without --clock) would make the node wait in
+  // silence: say once what it waits for.
+  constexpr double kSilentWait = 5.0;  // s of wall time: replay.launch's rosbag play waits 2 s
+  const ros::WallTime since = ros::WallTime::now();
+  bool told = false;
+  while (ros::ok() && ros::Time::now().isZero()) {
+    if (!told && ros::Time::isSimTime() && (ros::WallTime::now() - since).toSec() >= kSilentWait) {
+      ROS_WARN_STREAM("fem_cloth_node: /use_sim_time is true and nothing has come on /clock for "
+                      << kSilentWait << " s: waiting for /clock before the first step (left over "
+                      "from a replay? `rosparam set /use_sim_time false` and restart for real time)");
+      told = true;
+    }
+    ros::WallDuration(0.001).sleep();
+  }
+}
+
 void ClothNode::begin() {
   // Time origin: wait for a valid ROS time (with use_sim_time, the first /clock).
-  if (timeMode_ == TimeMode::RealTime) {
-    while (ros::ok() && ros::Time::now().isZero()) ros::WallDuration(0.001).sleep();
-  }
+  if (timeMode_ == TimeMode::RealTime) waitForRosTime();
   const ros::Time now = ros::Time::now();
   const ros::Time epoch =
       hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : now);
@@ -646,6 +661,14 @@ void ClothNode::turn() {
   }
   if (b.resumed) restartRealTime();
   if (!b.running && !b.stepWanted) {
+    // Before its first step a node paused from the start keeps its time origin at ROS time now
+    // (as ~resume sets it then), so that a pin or grasp in a moving frame is checked against
+    // the frame as it is now, not as it was when the node started (refused as 'unknown at the
+    // time it is needed' after a pause longer than tf_timeout). Not once a step is wanted: the
+    // step's times must not move while it waits for their transforms.
+    if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
+      driver_->setEpoch(ros::Time::now());
+    }
     publishDiagnostics(false);
     control_->wait(0.05);
     return;

@@ -74,6 +74,13 @@ bool CommandInbox::push(Command command) {
   return true;
 }
 
+void CommandInbox::refuse(CommandTopic topic) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Tally& t = tally_[static_cast<std::size_t>(topic)];
+  ++t.received;
+  ++t.invalid;
+}
+
 std::vector<Command> CommandInbox::take() {
   std::vector<Command> out;
   std::lock_guard<std::mutex> lock(mutex_);
@@ -87,8 +94,9 @@ CommandInbox::Tally CommandInbox::tally(CommandTopic topic) const {
   return tally_[static_cast<std::size_t>(topic)];
 }
 
-CommandStats toMsg(const CommandCounts& counts) {
+CommandStats toMsg(CommandTopic topic, const CommandCounts& counts) {
   CommandStats msg;
+  msg.topic = topicName(topic);
   msg.received = counts.received;
   msg.rejected = counts.rejected;
   msg.applied = counts.applied;
@@ -100,7 +108,7 @@ CommandStats toMsg(const CommandCounts& counts) {
 CommandCounts combinedCounts(const CommandInbox::Tally& inbox, const CommandCounts& driver) {
   CommandCounts c = driver;
   c.received = inbox.received;
-  c.rejected += inbox.refused;
+  c.rejected += inbox.refused + inbox.invalid;
   c.pending += inbox.waiting;
   return c;
 }

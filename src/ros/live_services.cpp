@@ -39,6 +39,7 @@ bool LiveServices::queue(Command command, std::string* message) {
 bool LiveServices::onSet(Set::Request& req, Set::Response& res) {
   const Expected<LiveChange> change = applyLiveChange(document(), req.pairs);
   if (!change) {
+    inbox_.refuse(topicOf<SetCommand>());
     res.success = false;
     res.message = "~set refused, nothing changed: " + change.error();
     return true;
@@ -56,6 +57,7 @@ bool LiveServices::onObstacle(std::uint8_t action, ObstacleChange::Request& req,
                                                                   : ObstacleEdit::Move;
   const Expected<LiveChange> change = applyObstacleChange(document(), kind, req.name, req.entry);
   if (!change) {
+    inbox_.refuse(topicOf<ObstacleCommand>());
     res.success = false;
     res.message = "refused, nothing changed: " + change.error();
     return true;
@@ -72,6 +74,7 @@ bool LiveServices::onObstacle(std::uint8_t action, ObstacleChange::Request& req,
 bool LiveServices::onGraspNearest(GraspNearest::Request& req, GraspNearest::Response& res) {
   const bool finitePoint = std::isfinite(req.point.x) && std::isfinite(req.point.y) && std::isfinite(req.point.z);
   if (!finitePoint || !std::isfinite(req.radius) || !(req.radius > 0.0)) {
+    inbox_.refuse(topicOf<GraspCommand>());
     res.success = false;
     res.message = !finitePoint ? "point is not finite" : "radius must be finite and > 0 m";
     return true;

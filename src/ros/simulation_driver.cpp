@@ -469,9 +469,15 @@ StepStats statsMessage(const SimulationDriver& driver, const StepReport& report,
   StepStats msg = toMsg(driver.header(), driver.stepIndex(), sim.integrator().name(), sim.settings().dt,
                         report, wallTime, realTimeFactor);
   msg.min_area_ratio = minAreaRatio(sim.model().mesh(), sim.model().rest(), sim.state().x);
-  msg.pin_commands = toMsg(driver.commandCounts(CommandTopic::Pin));
-  msg.force_commands = toMsg(driver.commandCounts(CommandTopic::Force));
+  setCommandStats(msg, [&driver](CommandTopic topic) { return driver.commandCounts(topic); });
   return msg;
+}
+
+void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts) {
+  msg.commands.clear();
+  for (CommandTopic topic : commandTopics()) msg.commands.push_back(toMsg(topic, counts(topic)));
+  msg.pin_commands = msg.commands[static_cast<std::size_t>(CommandTopic::Pin)];
+  msg.force_commands = msg.commands[static_cast<std::size_t>(CommandTopic::Force)];
 }
 
 }  // namespace fem_cloth

@@ -24,6 +24,7 @@
 
 #include "fem_cloth/core/material_audit.h"
 #include "fem_cloth/core/materials/materials.h"
+#include "fem_cloth/core/package_paths.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -206,16 +207,18 @@ struct SweepOptions {
 
 constexpr const char* kSweepHeader = "model,s,psi_J_per_m2,P11_N_per_m,P22_N_per_m";
 
-/// The plotting script: next to the executable in an install space, else where CMake configured
-/// it for the devel space (the source tree).
-std::string findPlotScript() {
+/// The plotting script: next to the executable in an install space (catkin_install_python puts
+/// it there), else in the devel space's source tree (core/package_paths.h).
+Expected<std::string> findPlotScript() {
   std::error_code ec;
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);
   if (!ec) {
     const fs::path installed = self.parent_path() / "plot_material_sweep.py";
     if (fs::exists(installed)) return installed.string();
   }
-  return FEM_CLOTH_PLOT_SWEEP_SCRIPT;
+  const Expected<fs::path> source = findPackageFile("scripts/plot_material_sweep.py");
+  if (!source) return Error{"plot script not found: " + source.error()};
+  return source->string();
 }
 
 /// Runs python3 on the plotting script without a shell; returns an error message or "".
@@ -224,8 +227,9 @@ std::string plotSweep(const fs::path& csv, const fs::path& png, const SweepOptio
   if (access(python.c_str(), X_OK) != 0) {
     return "python3 not found at " + python + " (install it with scripts/install-deps)";
   }
-  const std::string script = findPlotScript();
-  if (!fs::exists(script)) return "plot script not found: " + script;
+  const Expected<std::string> found = findPlotScript();
+  if (!found) return found.error();
+  const std::string& script = *found;
   std::ostringstream title;
   title << "mu = " << o.mu << " N/m, lambda = " << o.lambda << " N/m";
   std::vector<std::string> args = {python,       script,           "--csv", csv.string(),

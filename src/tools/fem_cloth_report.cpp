@@ -36,8 +36,10 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "fem_cloth/core/materials/materials.h"
+#include "fem_cloth/core/package_paths.h"
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/report/cases.h"
@@ -53,8 +55,8 @@ namespace {
 struct Options {
   std::string out = "output/report";
   std::string cache;  // default: <out>/cache
-  std::string configDir = FEM_CLOTH_CONFIG_DIR;
-  std::string bag = FEM_CLOTH_GRASP_BAG;
+  std::string configDir;  // default: the package's config/ (findPackageFile)
+  std::string bag;        // default: the package's test/data/small_grasp.bag
   std::shared_ptr<const Recording> recording;  // the bag, read (null: none, or it failed)
   std::string recordingError;
   bool small = false;
@@ -750,6 +752,19 @@ static int runReport(int argc, char** argv) {
     if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
     std::cerr << "fem_cloth_report: " << e.what() << " (see --help)\n";
     return 2;
+  }
+  // The defaults from the installed package (or the devel space's source tree): no path of the
+  // source tree is compiled in (core/package_paths.h).
+  for (const auto& [name, value, relative] :
+       {std::tuple{"--config", &opt.configDir, "config"},
+        std::tuple{"--bag", &opt.bag, "test/data/small_grasp.bag"}}) {
+    if (app.count(name) != 0) continue;
+    const Expected<std::filesystem::path> found = findPackageFile(relative);
+    if (!found) {
+      std::cerr << "fem_cloth_report: " << found.error() << " (give " << name << ")\n";
+      return 2;
+    }
+    *value = found->string();
   }
   opt.integrators = splitList(opt.integrators);
   opt.scenes = splitList(opt.scenes);

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/run_control.h"
 #include "fem_cloth/ros/tf_intake.h"
@@ -199,28 +200,42 @@ TEST(CommandInbox, LosesNothingWhilePushedFromSeveralThreadsAndTaken) {
 
 TEST(CommandCounts, TheNodeAddsItsInboxToTheDriver) {
   CommandInbox::Tally inbox;
-  inbox.received = 100;  // 7 refused on arrival, 3 still waiting, 90 handed to the driver
+  // 7 refused on arrival, 2 refused by a service's check, 3 still waiting, 88 handed to the driver
+  inbox.received = 100;
   inbox.refused = 7;
+  inbox.invalid = 2;
   inbox.waiting = 3;
   CommandCounts driver;
-  driver.received = 90;
+  driver.received = 88;
   driver.rejected = 10;
-  driver.applied = 60;
+  driver.applied = 58;
   driver.pending = 15;
   driver.discarded = 5;
   const CommandCounts c = combinedCounts(inbox, driver);
   EXPECT_EQ(c.received, 100u);
-  EXPECT_EQ(c.rejected, 17u);
-  EXPECT_EQ(c.applied, 60u);
+  EXPECT_EQ(c.rejected, 19u);
+  EXPECT_EQ(c.applied, 58u);
   EXPECT_EQ(c.pending, 18u);
   EXPECT_EQ(c.discarded, 5u);
   EXPECT_EQ(c.received, c.rejected + c.applied + c.pending + c.discarded);
-  const CommandStats msg = toMsg(c);
+  const CommandStats msg = toMsg(CommandTopic::Obstacle, c);
+  EXPECT_EQ(msg.topic, "obstacle");
   EXPECT_EQ(msg.received, 100u);
-  EXPECT_EQ(msg.rejected, 17u);
-  EXPECT_EQ(msg.applied, 60u);
+  EXPECT_EQ(msg.rejected, 19u);
+  EXPECT_EQ(msg.applied, 58u);
   EXPECT_EQ(msg.pending, 18u);
   EXPECT_EQ(msg.discarded, 5u);
+}
+
+TEST(CommandCounts, AServiceRefusalIsReceivedAndRejectedNotACapacityRefusal) {
+  CommandInbox box(10);
+  box.refuse(CommandTopic::Set);
+  const CommandInbox::Tally t = box.tally(CommandTopic::Set);
+  EXPECT_EQ(t.received, 1u);
+  EXPECT_EQ(t.invalid, 1u);
+  EXPECT_EQ(t.refused, 0u);  // the node warns about capacity refusals from this count
+  EXPECT_EQ(t.waiting, 0u);
+  EXPECT_EQ(box.tally(CommandTopic::Pin).received, 0u);
 }
 
 // --- Warning throttle ----------------------------------------------------------------------------
@@ -504,4 +519,18 @@ TEST(TfIntake, ATransformStampedWhereTf2OverflowsIsRefusedNotThrown) {
   t.transform.translation.x = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(insertTransform(tf, t, "test", false).ok());
   EXPECT_FALSE(insertTransform(tf, t, "test", true).ok());
+}
+
+// A recording's time origin comes from its first state after step 0: a node paused from the
+// start moves its origin to ROS time until its first step, so the step-0 state a recorder got at
+// start-up (stamp 100 s) is older than the origin of the run (105 s: step 3 at 105.03 s, dt 0.01).
+TEST(RunEpoch, TakenFromTheFirstStateAfterStepZero) {
+  RecordedRun run;
+  run.states = {{0, ros::Time(100.0), "a"}, {0, ros::Time(105.0), "a"}, {3, ros::Time(105, 30000000), "b"}};
+  const std::optional<ros::Time> epoch = runEpoch(run, 0.01);
+  ASSERT_TRUE(epoch);
+  EXPECT_NEAR(epoch->toSec(), 105.0, 1e-9);
+  // Only step-0 states: the last one.
+  run.states.pop_back();
+  EXPECT_EQ(runEpoch(run, 0.01), std::optional<ros::Time>(ros::Time(105.0)));
 }

@@ -5,17 +5,20 @@
 // exactly the vertices within the radius (counted here from ~state), following its frame; each
 // grasp frame has a wrench topic of its own, and at rest together they carry the cloth's weight
 // under the gravity ~set gave it.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <geometry_msgs/WrenchStamped.h>
 #include <tf2_msgs/TFMessage.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <cmath>
+#include <map>
 #include <set>
 
 #include "fem_cloth/GraspNearest.h"
 #include "fem_cloth/ObstacleChange.h"
 #include "fem_cloth/Set.h"
 #include "fem_cloth/SetCommand.h"
+#include "fem_cloth/StepStats.h"
 #include "node_test_support.h"
 
 using namespace fem_cloth_test;
@@ -175,6 +178,83 @@ TEST(LiveChanges, GraspNearestPinsTheVerticesWithinTheRadius) {
   EXPECT_NEAR(g->wrench.force.z + w->wrench.force.z, -2.0, 0.01);
   EXPECT_NEAR(g->wrench.force.x + w->wrench.force.x, 0.0, 0.01);
   EXPECT_NEAR(g->wrench.force.y + w->wrench.force.y, 0.0, 0.01);
+}
+
+// ~stats and /diagnostics count the requests of the live services on the topic each queues on:
+// a request a service refuses is received and rejected, a good one received and applied. Other
+// tests ran first on the same node, so the counts are compared with those read before.
+TEST(LiveChanges, StatsAndDiagnosticsCountTheServicesRequests) {
+  ros::NodeHandle nh;
+  ASSERT_TRUE(ros::service::waitForService(topic("set"), 20000));
+  ASSERT_TRUE(ros::service::waitForService(topic("remove_obstacle"), 20000));
+  ASSERT_TRUE(ros::service::waitForService(topic("grasp_nearest"), 20000));
+  Latest<fem_cloth::StepStats> stats(topic("stats"));
+  Latest<diagnostic_msgs::DiagnosticArray> diagnostics("/diagnostics");
+  auto entry = [](const fem_cloth::StepStats& s, const std::string& name) {
+    for (const fem_cloth::CommandStats& c : s.commands) {
+      if (c.topic == name) return c;
+    }
+    ADD_FAILURE() << "no '" << name << "' in ~stats.commands";
+    return fem_cloth::CommandStats();
+  };
+  auto before = stats.waitForAny();
+  ASSERT_TRUE(before);
+  ASSERT_EQ(before->commands.size(), 5u);
+  const std::vector<std::string> order = {"pin", "force", "set", "obstacle", "grasp"};
+  for (std::size_t k = 0; k < order.size(); ++k) EXPECT_EQ(before->commands[k].topic, order[k]);
+  EXPECT_EQ(before->pin_commands, before->commands[0]);
+  const fem_cloth::CommandStats set0 = entry(*before, "set"), obstacle0 = entry(*before, "obstacle"),
+                                grasp0 = entry(*before, "grasp");
+
+  fem_cloth::Set bad, good;
+  bad.request.pairs = {"material.poisson_ratio=0.7"};
+  good.request.pairs = {"damping.mass=4.0"};
+  fem_cloth::ObstacleChange remove;
+  remove.request.name = "no_such_obstacle";
+  fem_cloth::GraspNearest none;
+  none.request.radius = -1.0;
+  ASSERT_TRUE(ros::service::call(topic("set"), bad) && ros::service::call(topic("set"), good) &&
+              ros::service::call(topic("remove_obstacle"), remove) && ros::service::call(topic("grasp_nearest"), none));
+  EXPECT_FALSE(bad.response.success);
+  EXPECT_TRUE(good.response.success) << good.response.message;
+  EXPECT_FALSE(remove.response.success);
+  EXPECT_FALSE(none.response.success);
+
+  // set: 2 received, 1 rejected, 1 applied (once it took effect); obstacle, grasp: 1 rejected.
+  // Counted by a message of a step after the calls (those queued before them are older).
+  const ros::Time called = ros::Time::now();
+  auto after = stats.waitFor([&](const fem_cloth::StepStats& s) {
+    return s.header.stamp > called && s.commands.size() == 5 && s.commands[2].applied == set0.applied + 1;
+  });
+  ASSERT_TRUE(after) << "the good ~set was not counted as applied";
+  const fem_cloth::CommandStats set = entry(*after, "set"), obstacle = entry(*after, "obstacle"),
+                                grasp = entry(*after, "grasp");
+  EXPECT_EQ(set.received, set0.received + 2);
+  EXPECT_EQ(set.rejected, set0.rejected + 1);
+  EXPECT_EQ(obstacle.received, obstacle0.received + 1);
+  EXPECT_EQ(obstacle.rejected, obstacle0.rejected + 1);
+  EXPECT_EQ(obstacle.applied, obstacle0.applied);
+  EXPECT_EQ(grasp.received, grasp0.received + 1);
+  EXPECT_EQ(grasp.rejected, grasp0.rejected + 1);
+  EXPECT_EQ(grasp.applied, grasp0.applied);
+  for (const fem_cloth::CommandStats& c : after->commands) {
+    EXPECT_EQ(c.received, c.rejected + c.applied + c.pending + c.discarded) << c.topic;
+  }
+  // /diagnostics shows the same counts (sent at least once a second).
+  auto d = diagnostics.waitFor([&](const diagnostic_msgs::DiagnosticArray& a) {
+    for (const auto& status : a.status) {
+      for (const auto& kv : status.values) {
+        if (kv.key == "~set commands applied") return kv.value == std::to_string(set.applied);
+      }
+    }
+    return false;
+  }, 10.0);
+  ASSERT_TRUE(d) << "no /diagnostics with '~set commands applied' = " << set.applied;
+  std::map<std::string, std::string> values;
+  for (const auto& kv : d->status.at(0).values) values[kv.key] = kv.value;
+  EXPECT_EQ(values["~set commands rejected"], std::to_string(set.rejected));
+  EXPECT_EQ(values["~obstacle commands rejected"], std::to_string(obstacle.rejected));
+  EXPECT_EQ(values["~grasp commands received"], std::to_string(grasp.received));
 }
 
 int main(int argc, char** argv) {

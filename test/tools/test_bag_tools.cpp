@@ -404,3 +404,18 @@ TEST(Bagdiff, APlotIsNeverABag) {
   expectBadBag(bagdiff({a, a, "--plot", a}), {"--plot", "plotted.bag", "destroy"});
   EXPECT_EQ(fem_cloth::test::readTextFile(a), before);
 }
+
+// `rosrun fem_cloth TOOL` finds exactly one executable for each Python tool, in the layout the
+// scripts build (catkin_build/ inside the source tree, which rosrun searches too): with several
+// it stops at a numbered prompt, which with stdin closed runs nothing. So each is run with stdin
+// closed and must print its own usage (argparse names the program) and exit 0.
+TEST(Rosrun, FindsOneCopyOfEachPythonTool) {
+  for (const std::string tool : {"fem_cloth_bagdiff", "fem_cloth_batch", "bag_report.py",
+                                 "plot_report.py", "plot_material_sweep.py"}) {
+    const ProgramResult r = fem_cloth::test::runProgramWithin(
+        60, "/bin/sh", {"-c", "exec rosrun fem_cloth \"$0\" --help <&-", tool}, scratch());
+    EXPECT_EQ(r.out.find("non-unique"), std::string::npos) << tool << ":\n" << r.out;
+    EXPECT_EQ(r.out.rfind("usage: " + tool + " ", 0), 0u) << tool << ":\n" << r.out << r.err;
+    EXPECT_EQ(r.status, 0) << tool << ":\n" << r.out << r.err;
+  }
+}

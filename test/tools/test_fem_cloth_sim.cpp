@@ -67,7 +67,11 @@ void expectUsageError(const std::vector<std::string>& args,
 }  // namespace
 
 // Every shipped scene with every integrator for a few steps: exit 0, every step taken, and a
-// summary naming the integrator; nothing on stderr but warnings.
+// summary naming the integrator; nothing on stderr but warnings. Or, for XPBD on the stiff
+// scenes (stiff_cloth: 1e6 N/m at dt 1e-2; hanging_cloth_fast: 65 x 65 at 1/60 s), a refusal by
+// the acceptance (issue 11, test a): its sweeps cannot balance the forces there even at 16x its
+// single substep (it used to run on, unbalanced), and the message says so and what helps. With
+// integrator.substeps=256 both run (measured 7 s and 13 s for 2 steps: too slow for this test).
 TEST(FemClothSim, EverySceneWithEveryIntegratorRuns) {
   int scenes = 0;
   for (const auto& entry : std::filesystem::directory_iterator(kConfigDir)) {
@@ -82,6 +86,15 @@ TEST(FemClothSim, EverySceneWithEveryIntegratorRuns) {
       if (r.err.find("contact.self_collision needs an implicit integrator") != std::string::npos) {
         EXPECT_EQ(r.status, 2) << what;
         EXPECT_TRUE(integrator == "symplectic_euler" || integrator == "xpbd") << what << r.err;
+        continue;
+      }
+      if (integrator == "xpbd" && r.status == 3 && r.err.find("xpbd: not converged") != std::string::npos) {
+        EXPECT_TRUE(entry.path().filename() == "stiff_cloth.yaml" ||
+                    entry.path().filename() == "hanging_cloth_fast.yaml")
+            << what << ": " << r.err;
+        EXPECT_NE(r.err.find("unbalanced force"), std::string::npos) << what << r.err;
+        EXPECT_NE(r.err.find("more integrator.substeps may help"), std::string::npos) << what << r.err;
+        EXPECT_EQ(lines(r.err).size(), 1u) << what << r.err;
         continue;
       }
       EXPECT_EQ(r.status, 0) << what << "\n" << r.err;

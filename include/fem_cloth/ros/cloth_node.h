@@ -94,6 +94,7 @@ class ClothNode {
   /// ~reset, ~resume and the end of an ~advance, as the run loop carries them out.
   void doReset();
   void restartRealTime();
+  void waitForRosTime();
   void finishAdvance();
   /// Seconds until the next step is due in real_time mode (<= 0: due).
   double secondsUntilDue() const;

@@ -134,11 +134,14 @@ class CommandInbox {
 
   /// False (the command is counted as refused) when `capacity` commands already wait.
   bool push(Command command);
+  /// Counts a request of `topic` that a service refused on its own check (received, invalid).
+  void refuse(CommandTopic topic);
   /// Every waiting command, in arrival order.
   std::vector<Command> take();
 
   struct Tally {
     std::uint64_t received = 0, refused = 0, waiting = 0;
+    std::uint64_t invalid = 0;  ///< refused by a service's check (refused: by the capacity)
   };
   Tally tally(CommandTopic topic) const;
   std::size_t capacity() const { return capacity_; }
@@ -150,7 +153,7 @@ class CommandInbox {
   std::array<Tally, kCommandTopics> tally_{};
 };
 
-CommandStats toMsg(const CommandCounts& counts);
+CommandStats toMsg(CommandTopic topic, const CommandCounts& counts);
 
 /// The counts a node reports: those of its inbox (commands not yet validated, or refused by the
 /// inbox) added to those of its driver.

@@ -15,6 +15,7 @@
 #include <tf2/buffer_core.h>
 
 #include <array>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -160,6 +161,9 @@ Status obstacleNameProblem(const std::string& name);
 /// caller), with the driver's command counts.
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
                        double realTimeFactor);
+/// Sets `msg.commands` (one entry per command topic, in CommandTopic order) and the older
+/// pin_commands and force_commands from `counts`.
+void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts);
 
 template <class C>
 std::vector<C> SimulationDriver::takeApplied() {
