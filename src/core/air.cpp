@@ -116,13 +116,14 @@ double AirModel::explicitRate(const VectorX& v, const VectorX& vertexMasses) con
   }
   double rate = 0.0;
   for (std::size_t i = 0; i < rowSum.size(); ++i) {
-    if (vertexMasses[static_cast<Index>(i)] > 0.0) rate = std::max(rate, rowSum[i] / vertexMasses[static_cast<Index>(i)]);
+    const double m = vertexMasses[static_cast<Index>(i)];
+    if (m > 0.0) rate = std::max(rate, rowSum[i] / m);
   }
   return rate;
 }
 
 bool LaggedAir::begin(AirModel* air, const VectorX& external, const State& state,
-                      const VectorX& vertexMasses, double h, const std::string& integrator,
+                      const VectorX& vertexMasses, double h, const char* integrator,
                       StepReport& report) {
   active_ = air != nullptr;
   forces_ = &external;

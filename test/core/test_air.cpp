@@ -92,7 +92,8 @@ TEST(Air, InclinedPlateFeelsDragAndLiftByHand) {
 // D's velocity gradient is minus the force and its Hessian the gradient's derivative (central
 // differences), and the Hessian is PSD (D convex), on a crumpled sheet moving in a wind.
 TEST(Air, DissipationPotentialDerivativesByFiniteDifferences) {
-  Simulation sim = build(sheet("backward_euler", 0.01, "air: {normal_drag: 1.2, tangential_drag: 0.3, wind: [1, -2, 0.5]}\n"));
+  Simulation sim = build(sheet("backward_euler", 0.01,
+                               "air: {normal_drag: 1.2, tangential_drag: 0.3, wind: [1, -2, 0.5]}\n"));
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   VectorX x = sim.mesh->restPositions;

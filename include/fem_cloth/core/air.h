@@ -22,7 +22,6 @@
 #pragma once
 
 #include <memory>
-#include <string>
 #include <vector>
 
 #include "fem_cloth/core/expected.h"
@@ -77,9 +76,10 @@ class LaggedAir {
   /// Prepares the substep from `state` of length h: forces() is then `external` itself without
   /// air, and external + the air force at state.v with air. False, with report.error (naming
   /// `integrator`) and report.ok set, when h is too long for an explicit drag force
-  /// (AirModel::explicitRate); retryable: more substeps help.
+  /// (AirModel::explicitRate); retryable: more substeps help. (`integrator` is a C string: no
+  /// allocation in the step loop.)
   bool begin(AirModel* air, const VectorX& external, const State& state, const VectorX& vertexMasses,
-             double h, const std::string& integrator, StepReport& report);
+             double h, const char* integrator, StepReport& report);
   const VectorX* forces() const { return forces_; }
   /// The air force's work (J) over the substep, from begin()'s positions to xEnd (0 without air).
   double work(const VectorX& xEnd) const;

@@ -346,7 +346,8 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
     xPrev_ = state.x;
     vStart_ = state.v;
     // Air (air.h): its force at the substep's starting velocity, with the commanded forces.
-    if (!air_.begin(given.air, *given.externalForce, state, model.vertexMasses(), h, name(), report)) {
+    if (!air_.begin(given.air, *given.externalForce, state, model.vertexMasses(), h,
+                    "projective_dynamics", report)) {
       return report;
     }
     input.externalForce = air_.forces();

@@ -120,7 +120,8 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
       return report;
     }
     // Air (air.h): its force at the substep's starting velocity, explicit like the rest.
-    if (!air_.begin(input.air, *input.externalForce, state, model.vertexMasses(), h, name(), report)) {
+    if (!air_.begin(input.air, *input.externalForce, state, model.vertexMasses(), h,
+                    "symplectic_euler", report)) {
       return report;
     }
     force_ = *input.gravityForce + *air_.forces() - gradient_;

@@ -85,7 +85,8 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
     xStart_ = state.x;
     vStart_ = state.v;
     // Air (air.h): its force at the substep's starting velocity, with the commanded forces.
-    if (!air_.begin(given.air, *given.externalForce, state, model.vertexMasses(), h, name(), report)) {
+    if (!air_.begin(given.air, *given.externalForce, state, model.vertexMasses(), h,
+                    "xpbd", report)) {
       return report;
     }
     input.externalForce = air_.forces();
