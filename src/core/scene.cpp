@@ -223,6 +223,16 @@ Status validateIntegratorKeys(const Scene& s) {
   return Status::success();
 }
 
+Status validateAirKeys(const Scene& s) {
+  if (!s.air) return Status::success();
+  const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
+  if (dim != 3) return Error{"air: the air model needs a cloth in 3D (mesh.dim 3), got dim " + std::to_string(dim)};
+  FEM_CLOTH_CHECK(inRange(s.air->density, 0.0, 1e4, "air.density", "kg/m^3"));
+  FEM_CLOTH_CHECK(inRange(s.air->normalDrag, 0.0, 10.0, "air.normal_drag", ""));
+  FEM_CLOTH_CHECK(inRange(s.air->tangentialDrag, 0.0, 10.0, "air.tangential_drag", ""));
+  return boundedVector(s.air->wind, 1e3, "air.wind", "m/s");
+}
+
 Status validateCommandKeys(const Scene& s) {
   for (std::size_t i = 0; i < s.pins.size(); ++i) {
     const std::string key = "pins[" + std::to_string(i) + "]";
@@ -300,6 +310,7 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(validateMaterialKeys(s));
   FEM_CLOTH_CHECK(validateIntegratorKeys(s));
   FEM_CLOTH_CHECK(validateCommandKeys(s));
+  FEM_CLOTH_CHECK(validateAirKeys(s));
   FEM_CLOTH_CHECK(validateRunLength(s));
   return validateContactKeys(s);
 }
@@ -717,6 +728,7 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   settings.minSubsteps = scene.substeps;
   settings.maxRetries = scene.maxRetries;
   sim.simulator = std::make_unique<Simulator>(sim.model, makeIntegrator(scene), settings);
+  if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
   Simulator& simulator = *sim.simulator;
   const int d = mesh->dim;
   const Index n = mesh->numVertices();

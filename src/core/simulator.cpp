@@ -52,7 +52,8 @@ void Simulator::snapshotInitial() {
   initial_.pinVelocity = pinVelocity_;
   initial_.forces = forces_;
   initialPositions_ = state_.x;
-  externalWork_ = pinWork_ = contactWork_ = dissipated_ = liveWork_ = numerical_ = created_ = heldMost_ = 0.0;
+  externalWork_ = pinWork_ = contactWork_ = airWork_ = dissipated_ = liveWork_ = numerical_ = created_ = 0.0;
+  heldMost_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
@@ -96,7 +97,8 @@ void Simulator::reset() {
   rebuildExternalForce();
   integrator_->invalidate();
   if (contact_) contact_->reset();
-  externalWork_ = pinWork_ = contactWork_ = dissipated_ = liveWork_ = numerical_ = created_ = heldMost_ = 0.0;
+  externalWork_ = pinWork_ = contactWork_ = airWork_ = dissipated_ = liveWork_ = numerical_ = created_ = 0.0;
+  heldMost_ = 0.0;
   pinForce_.setZero();
   previousPinForce_.setZero();
   lastReport_ = StepReport();
@@ -123,6 +125,7 @@ void Simulator::continueFrom(Simulator& from) {
   externalWork_ = from.externalWork_;
   pinWork_ = from.pinWork_;
   contactWork_ = from.contactWork_;
+  airWork_ = from.airWork_;
   dissipated_ = from.dissipated_;
   numerical_ = from.numerical_;
   created_ = from.created_;
@@ -248,6 +251,8 @@ void Simulator::rebuildExternalForce() {
                                     externalForce_.lpNorm<1>() / model_->totalMass());
 }
 
+void Simulator::setAir(std::unique_ptr<AirModel> air) { air_ = std::move(air); }
+
 StepReport Simulator::step() { return step(settings_.dt); }
 
 StepInput Simulator::stepInput(double dt) {
@@ -267,6 +272,7 @@ StepInput Simulator::stepInput(double dt) {
     contact_->beginStep(state_.time, dt);
     input.contact = contact_.get();
   }
+  input.air = air_.get();
   return input;
 }
 
@@ -286,17 +292,20 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
   energy.externalWork = externalForce_.dot(state_.x - backup_.x);
   energy.pinWork = r.pinWork;
   energy.contactWork = r.contactWork;
+  energy.airWork = r.airWork;
   energy.dissipated = r.dissipated;
   if (Status s = acceptance_.energyConserved(energy, integrator_->energyTolerance(), sizeScale_); !s) {
     return s;
   }
-  const double runScale = runEnergyScale(energy.held, energy.externalWork, energy.pinWork, energy.contactWork);
+  const double runScale = runEnergyScale(energy.held, energy.externalWork, energy.pinWork,
+                                         energy.contactWork, energy.airWork);
   return acceptance_.runEnergyConserved(created_ - numerical_, energy, runScale);
 }
 
-double Simulator::runEnergyScale(double held, double externalWork, double pinWork, double contactWork) const {
+double Simulator::runEnergyScale(double held, double externalWork, double pinWork, double contactWork,
+                                 double airWork) const {
   const double work = std::abs(externalWork_ + externalWork) + std::abs(pinWork_ + pinWork) +
-                      std::abs(contactWork_ + contactWork);
+                      std::abs(contactWork_ + contactWork) + std::abs(airWork_ + airWork);
   return std::max({sizeScale_, heldMost_, held, work});
 }
 
@@ -304,6 +313,7 @@ void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt)
   externalWork_ += energy.externalWork;
   pinWork_ += energy.pinWork;
   contactWork_ += energy.contactWork;
+  airWork_ += energy.airWork;
   dissipated_ += energy.dissipated;
   const double created = energy.created();
   if (created > 0.0) {
@@ -368,6 +378,7 @@ StepReport Simulator::step(double dt) {
     total.contactChecks += r.contactChecks;
     total.contacts = r.contacts;
     total.contactWork = r.contactWork;
+    total.airWork = r.airWork;
     total.minContactDistance = r.minContactDistance;
     if (r.ok) {
       total.dissipated = r.dissipated;
@@ -422,14 +433,16 @@ EnergyReport Simulator::energies() {
   e.externalWork = externalWork_;
   e.pinWork = pinWork_;
   e.contactWork = contactWork_;
+  e.airWork = airWork_;
   e.dissipated = dissipated_;
   e.liveWork = liveWork_;
   e.total = e.kinetic + e.strain + e.bending + e.gravity;
-  e.balanceError = e.total - e.externalWork - e.pinWork - e.contactWork - e.liveWork + e.dissipated -
+  e.balanceError = e.total - e.externalWork - e.pinWork - e.contactWork - e.airWork - e.liveWork +
+                   e.dissipated -
                    initialTotal_;
   e.numericalDissipation = numerical_;
   e.created = created_;
-  e.energyScale = runEnergyScale(0.0, 0.0, 0.0, 0.0);
+  e.energyScale = runEnergyScale(0.0, 0.0, 0.0, 0.0, 0.0);
   return e;
 }
 

@@ -12,7 +12,8 @@ const std::vector<std::string>& liveKeys() {
   static const std::vector<std::string> keys = {
       "material.youngs_modulus", "material.poisson_ratio", "material.mu",       "material.lambda",
       "bending.stiffness",       "damping.mass",           "damping.stiffness", "gravity",
-      "contact.self_friction"};
+      "contact.self_friction",   "air.density",            "air.normal_drag",   "air.tangential_drag",
+      "air.wind"};
   return keys;
 }
 

@@ -492,6 +492,21 @@ Status readMaterial(const MapReader& root, Scene& s) {
   return damp.number("stiffness", s.damping.stiffnessProportional);
 }
 
+// `air:` given (a map, possibly empty: the defaults) declares the air model; absent or empty of
+// value, there is none.
+Status readAir(const MapReader& root, Scene& s) {
+  if (!root.has("air") || root.child("air").IsNull()) return Status::success();
+  MapReader air(root.child("air"), "air", {"density", "normal_drag", "tangential_drag", "wind"});
+  FEM_CLOTH_CHECK(air.check());
+  AirSettings a;
+  FEM_CLOTH_CHECK(air.number("density", a.density));
+  FEM_CLOTH_CHECK(air.number("normal_drag", a.normalDrag));
+  FEM_CLOTH_CHECK(air.number("tangential_drag", a.tangentialDrag));
+  FEM_CLOTH_CHECK(air.vector("wind", a.wind));
+  s.air = a;
+  return Status::success();
+}
+
 Status readPins(const MapReader& root, Scene& s) {
   YAML::Node pins;
   FEM_CLOTH_CHECK(root.list("pins", "a list", pins));
@@ -559,13 +574,14 @@ Expected<Scene> readScene(const YAML::Node& doc, const std::string& sourcePath) 
   Scene s;
   s.sourcePath = sourcePath;
   MapReader root(doc, "",
-                 {"name", "mesh", "material", "bending", "damping", "gravity", "integrator",
+                 {"name", "mesh", "material", "bending", "damping", "air", "gravity", "integrator",
                   "pins", "forces", "initial", "duration", "obstacles", "contact", "frames"});
   if (!doc.IsMap()) return Error{"scene must be a map of keys, got " + describe(doc)};
   FEM_CLOTH_CHECK(root.check());
   FEM_CLOTH_CHECK(root.text("name", s.name));
   FEM_CLOTH_CHECK(readMesh(root.child("mesh"), s));
   FEM_CLOTH_CHECK(readMaterial(root, s));
+  FEM_CLOTH_CHECK(readAir(root, s));
   FEM_CLOTH_CHECK(root.vector("gravity", s.gravity));
   FEM_CLOTH_CHECK(readIntegrator(root.child("integrator"), s));
   FEM_CLOTH_CHECK(root.number("duration", s.duration));

@@ -324,7 +324,9 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
   summary << "energy (J):   kinetic " << e.kinetic << ", strain " << e.strain << ", bending "
           << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
   summary << "work (J):     external " << e.externalWork << ", pins " << e.pinWork
-          << ", dissipated by damping " << e.dissipated << '\n';
+          << ", dissipated by damping " << e.dissipated;
+  if (simulator.air() != nullptr) summary << ", air " << e.airWork;
+  summary << '\n';
   if (const ContactModel* contact = simulator.contact()) {
     // What each obstacle carries at the end (N, in the simulation frame): a table under a
     // resting cloth carries its weight.

@@ -116,6 +116,8 @@ struct Scene {
 
   Damping damping;
   Eigen::Vector3d gravity{0.0, 0.0, -9.81};
+  /// Aerodynamic drag and lift (core/air.h, docs/air.md); absent: no air code runs at all.
+  std::optional<AirSettings> air;
 
   // integrator
   std::string integrator = "backward_euler";

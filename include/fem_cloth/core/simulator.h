@@ -15,6 +15,7 @@
 #include <optional>
 #include <vector>
 
+#include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
@@ -31,8 +32,8 @@ struct SimulatorSettings {
 };
 
 /// Energies in joules. The balance error is the drift of
-///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork - liveWork
-///   + dissipated
+///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork - airWork
+///   - liveWork + dissipated
 /// since the start (or the last reset); zero for the exact solution. It is split by the sign of
 /// each step's share: balanceError = created - numericalDissipation, where numericalDissipation
 /// is what the steps lost beyond the damping model (expected of the implicit schemes, XPBD and
@@ -46,6 +47,7 @@ struct EnergyReport {
   double externalWork = 0.0;
   double pinWork = 0.0;
   double contactWork = 0.0;  ///< by obstacles and self-contact, friction included (<= 0 when static)
+  double airWork = 0.0;  ///< by the air (core/air.h): < 0 when it only drags, > 0 when wind pushes
   /// Put in by live changes (core/live_change.h): at each, the jump of the stored energy at the
   /// state it was made in (stiffer cloth, other gravity), as work done by whoever changed it.
   double liveWork = 0.0;
@@ -73,6 +75,9 @@ class Simulator {
   void setContact(std::unique_ptr<ContactModel> contact) { contact_ = std::move(contact); }
   ContactModel* contact() { return contact_.get(); }
   const ContactModel* contact() const { return contact_.get(); }
+  /// Aerodynamic drag and lift. Without it (the default) no air code runs at all.
+  void setAir(std::unique_ptr<AirModel> air);
+  const AirModel* air() const { return air_.get(); }
   const SimulatorSettings& settings() const { return settings_; }
   /// Replaces the acceptance tests' settings (experiments only: see AcceptanceSettings).
   void setAcceptance(const AcceptanceSettings& settings);
@@ -142,6 +147,7 @@ class Simulator {
   std::shared_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
   std::unique_ptr<ContactModel> contact_;
+  std::unique_ptr<AirModel> air_;
   SimulatorSettings settings_;
   StepAcceptance acceptance_;
   State state_;
@@ -168,11 +174,13 @@ class Simulator {
   // Energy bookkeeping.
   VectorX initialPositions_;
   double initialTotal_ = 0.0;
-  double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, dissipated_ = 0.0, liveWork_ = 0.0;
+  double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, airWork_ = 0.0, dissipated_ = 0.0;
+  double liveWork_ = 0.0;
   double numerical_ = 0.0, created_ = 0.0;
   double heldMost_ = 0.0;  // the most kinetic + elastic energy an accepted step held (J)
   /// The run's energy scale of acceptance (b), with the work and held energy of a step added.
-  double runEnergyScale(double held, double externalWork, double pinWork, double contactWork) const;
+  double runEnergyScale(double held, double externalWork, double pinWork, double contactWork,
+                        double airWork) const;
   double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.

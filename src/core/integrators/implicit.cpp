@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
 
 namespace fem_cloth {
@@ -69,6 +70,12 @@ double ImplicitIntegrator::potential(const VectorX& x, double elastic) {
     patternProduct(model_->hessianPattern().matrix(), laggedStiffness_, x - xc_, scratch_);
     phi += 0.5 * c2_ * gamma_ * (x - xc_).dot(scratch_);
   }
+  // The air's dissipation potential D at v = gamma (x - xc), as c^2 / gamma D (backward Euler:
+  // h^2 (h D)), whose x-gradient is -c^2 times the air force (air.h).
+  if (air_ != nullptr) {
+    airVelocity_ = gamma_ * (x - xc_);
+    phi += c2_ / gamma_ * air_->dissipation(airVelocity_);
+  }
   return phi;
 }
 
@@ -80,6 +87,11 @@ void ImplicitIntegrator::potentialGradient(const VectorX& x, const VectorX& elas
   if (beta_ > 0.0) {
     patternProduct(model_->hessianPattern().matrix(), laggedStiffness_, x - xc_, scratch_);
     out += c2_ * gamma_ * scratch_;
+  }
+  if (air_ != nullptr) {
+    airVelocity_ = gamma_ * (x - xc_);
+    air_->force(airVelocity_, airForce_);
+    out -= c2_ * airForce_;
   }
 }
 
@@ -148,12 +160,13 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
     const bool watchImpact = scheme_ == ImplicitScheme::Bdf2 && input.contact != nullptr;
     const bool bdf2Substep =
         watchImpact && state.hasHistory() && std::abs(state.historyDt - h) <= 1e-12 * h;
-    double dissipatedBefore = 0.0, contactWorkBefore = 0.0, pinWorkBefore = 0.0;
+    double dissipatedBefore = 0.0, contactWorkBefore = 0.0, pinWorkBefore = 0.0, airWorkBefore = 0.0;
     if (bdf2Substep) {
       beforeImpact_ = state;
       dissipatedBefore = report.dissipated;
       contactWorkBefore = report.contactWork;
       pinWorkBefore = report.pinWork;
+      airWorkBefore = report.airWork;
     }
     bool ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
     if (ok && watchImpact && report.contacts > contactsBefore_) {
@@ -163,6 +176,7 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
         report.dissipated = dissipatedBefore;
         report.contactWork = contactWorkBefore;
         report.pinWork = pinWorkBefore;
+        report.airWork = airWorkBefore;
         ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
       }
       if (ok) restartSubsteps_ = 2;
@@ -189,6 +203,8 @@ void ImplicitIntegrator::prepare(const StepInput& input, const State& state, dou
   mass_ = &model.dofMasses();
   alpha_ = input.damping.massProportional;
   beta_ = input.damping.stiffnessProportional;
+  air_ = input.air;
+  if (air_ != nullptr) air_->lag(state.x);  // normals and areas at the start of the substep
   const bool bdf2 = scheme_ == ImplicitScheme::Bdf2 && state.hasHistory() &&
                     std::abs(state.historyDt - h) <= 1e-12 * h;
   if (bdf2) {
@@ -311,6 +327,11 @@ bool ImplicitIntegrator::newtonStep(StepReport& report) {
   }
   for (Index i = 0; i < n; ++i) {
     values[hessian.diagonalOffset(i)] += mass[i] * (1.0 + c2_ * gamma_ * alpha_);
+  }
+  // The air's c^2 / gamma D(gamma (x - xc)) has the x-Hessian c^2 gamma d^2D/dv^2 (PSD).
+  if (air_ != nullptr) {
+    airVelocity_ = gamma_ * (x_ - xc_);
+    air_->addHessian(airVelocity_, c2_ * gamma_, hessian);
   }
   // Contact Hessian (c^2 times): entries outside the model's pattern make a system of its own.
   Matrix* system = &A;
@@ -496,6 +517,10 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
   if (beta_ > 0.0) {
     patternProduct(model_->hessianPattern().matrix(), laggedStiffness_, vNew, scratch_);
     report.dissipated += h * vNew.dot(scratch_);
+  }
+  if (air_ != nullptr) {
+    air_->force(vNew, airForce_);
+    report.airWork += airForce_.dot(x_ - state.x);
   }
   state.xPrevious.swap(state.x);
   state.vPrevious.swap(state.v);

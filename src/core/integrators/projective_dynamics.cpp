@@ -315,8 +315,10 @@ ForceResidual ProjectiveDynamics::quasiNewton(const StepInput& input, State& sta
   return unbalanced;
 }
 
-StepReport ProjectiveDynamics::step(const StepInput& input, State& state, double dt,
+StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double dt,
                                     int minSubsteps, VectorX& pinForce) {
+  // A copy whose commanded forces include the air's, per substep (air only).
+  StepInput input = given;
   StepReport report;
   Model& model = *input.model;
   const int d = model.dim();
@@ -343,6 +345,12 @@ StepReport ProjectiveDynamics::step(const StepInput& input, State& state, double
   for (int s = 0; s < substeps; ++s) {
     xPrev_ = state.x;
     vStart_ = state.v;
+    // Air (air.h): its force at the substep's starting velocity, with the commanded forces.
+    if (!air_.begin(given.air, *given.externalForce, state, model.vertexMasses(), h,
+                    "projective_dynamics", report)) {
+      return report;
+    }
+    input.externalForce = air_.forces();
     xhat_ = state.x + h * state.v;
     // Pins move to their interpolated targets; free vertices start from the inertial prediction
     // xhat. The forces enter through the global step's right-hand side; adding h^2 M^-1 f here
@@ -384,6 +392,7 @@ StepReport ProjectiveDynamics::step(const StepInput& input, State& state, double
       pinForce[i] = pinned[i] ? force_[i] : 0.0;
       if (pinned[i]) report.pinWork += force_[i] * (state.x[i] - xPrev_[i]);
     }
+    report.airWork += air_.work(state.x);
   }
   report.residual = report.unbalanced.largest;
   report.dtUsed = h;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
 
 namespace fem_cloth {
@@ -118,7 +119,12 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
                      " left its material's domain (inverted or collapsed)";
       return report;
     }
-    force_ = *input.gravityForce + *input.externalForce - gradient_;
+    // Air (air.h): its force at the substep's starting velocity, explicit like the rest.
+    if (!air_.begin(input.air, *input.externalForce, state, model.vertexMasses(), h,
+                    "symplectic_euler", report)) {
+      return report;
+    }
+    force_ = *input.gravityForce + *air_.forces() - gradient_;
     if (beta > 0.0) {
       // Stiffness-proportional damping -beta K v, with K v from a directional difference of
       // the elastic gradient (one more gradient evaluation, paid only when beta > 0).
@@ -168,6 +174,7 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
       report.dissipated += h * alpha * state.v.dot(mass.cwiseProduct(state.v));
     }
     if (beta > 0.0) report.dissipated += h * state.v.dot(dampingForce_);
+    report.airWork += air_.work(state.x);
     if (!state.x.allFinite() || !state.v.allFinite()) {
       report.ok = false;
       report.error = "symplectic_euler: the state became non-finite";

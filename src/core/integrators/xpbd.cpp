@@ -39,8 +39,10 @@ void Xpbd::cacheStiffness(Model& model) {
   stiffnessModel_ = &model;
 }
 
-StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSubsteps,
+StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSubsteps,
                       VectorX& pinForce) {
+  // A copy whose commanded forces include the air's, per substep (air only).
+  StepInput input = given;
   StepReport report;
   Model& model = *input.model;
   const std::vector<char>& pinned = *input.pinned;
@@ -82,6 +84,12 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
   for (int s = 0; s < substeps; ++s) {
     xStart_ = state.x;
     vStart_ = state.v;
+    // Air (air.h): its force at the substep's starting velocity, with the commanded forces.
+    if (!air_.begin(given.air, *given.externalForce, state, model.vertexMasses(), h,
+                    "xpbd", report)) {
+      return report;
+    }
+    input.externalForce = air_.forces();
     // Predict: explicit velocity update with gravity and commanded forces; pins move to their
     // interpolated targets.
     for (Index i = 0; i < n; ++i) {
@@ -145,6 +153,7 @@ StepReport Xpbd::step(const StepInput& input, State& state, double dt, int minSu
                     (*input.gravityForce)[i] - (*input.externalForce)[i];
       report.pinWork += pinForce[i] * (state.x[i] - xStart_[i]);
     }
+    report.airWork += air_.work(state.x);
   }
   report.residual = report.unbalanced.largest;
   report.substeps = substeps;

@@ -15,7 +15,7 @@
 //      substep, h r_i / m_i, is then at most 1 % (the default) of the vertex's speed plus what
 //      the reference acceleration adds in the substep.
 //  (b) No energy created: over the step, the mechanical energy (kinetic + elastic + gravitational)
-//      may not grow by more than the work put in (commanded forces, pins, contact) minus what the
+//      may not grow by more than the work put in (commanded forces, pins, contact, air) minus what the
 //      damping model removed, beyond the integrator's bound (Integrator::energyTolerance()) times
 //      the energy scale (the larger of weight x size, the energy the cloth holds and the work of
 //      the step). What is lost beyond the damping model is numerical dissipation, expected of the
@@ -83,9 +83,9 @@ struct AcceptanceSettings {
 struct EnergyStep {
   double start = 0.0, end = 0.0;  ///< mechanical energy before and after
   double held = 0.0;              ///< kinetic + elastic energy held (the larger of before, after)
-  double externalWork = 0.0, pinWork = 0.0, contactWork = 0.0;  ///< work put in
+  double externalWork = 0.0, pinWork = 0.0, contactWork = 0.0, airWork = 0.0;  ///< work put in
   double dissipated = 0.0;        ///< removed by the damping model
-  double work() const { return externalWork + pinWork + contactWork; }
+  double work() const { return externalWork + pinWork + contactWork + airWork; }
   /// Energy the attempt created (negative: numerical dissipation).
   double created() const { return end - start - work() + dissipated; }
 };

@@ -20,6 +20,10 @@
 // the identity (scaled by their mass) with zero right-hand side, which keeps the matrix pattern,
 // and so the symbolic factorisation, fixed while pins come and go.
 //
+// Air (air.h; only when the scene has `air`): Phi gains c^2 / gamma D(gamma (x - xc)), the air's
+// dissipation potential at the step's velocity with normals and areas lagged at the start of the
+// substep, convex in x, so Newton stays a minimisation.
+//
 // Contact (contact/contact_model.h; only when the scene has obstacles or self-collision): Phi
 // gains c^2 (kappa B(x) + D(x)), the barrier and lagged friction potentials of Incremental
 // Potential Contact (Li et al. 2020); each Newton step is first cut to the largest fraction that
@@ -106,6 +110,8 @@ class ImplicitIntegrator final : public Integrator {
   double lastFraction_ = 1.0;  // of dx_ the last line search took
   const std::vector<char>* pinned_ = nullptr;
   ContactModel* contact_ = nullptr;
+  AirModel* air_ = nullptr;  // null: no air term in Phi
+  VectorX airVelocity_, airForce_;
   Model* model_ = nullptr;
   // Scratch, sized once.
   VectorX dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_, unbalancedForce_, velocity_;

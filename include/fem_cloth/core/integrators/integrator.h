@@ -17,6 +17,7 @@
 
 namespace fem_cloth {
 
+class AirModel;
 class ContactModel;
 
 /// Rayleigh damping: the damping force is -(alpha M + beta K) v, with K the (PSD-projected)
@@ -56,6 +57,9 @@ struct StepInput {
   /// Obstacles and self-contact (contact/contact_model.h); null when the scene has neither, and
   /// then no contact code runs at all.
   ContactModel* contact = nullptr;
+  /// Aerodynamic drag and lift (core/air.h); null when the scene has no `air`, and then no air
+  /// code runs at all.
+  AirModel* air = nullptr;
   /// What the unbalanced forces a solver leaves are measured against (acceptance.h, test (a)):
   /// iterative solvers iterate until measureResidual() is within the tolerance.
   ResidualScale residualScale;
@@ -85,6 +89,9 @@ struct StepReport {
   int contacts = 0;         ///< contacts at the end of the step (closer than the contact distance)
   std::uint64_t contactChecks = 0;  ///< distance evaluations for contact; 0 without contact
   double contactWork = 0.0;  ///< work of the contact and friction forces on the cloth (J)
+  /// Work of the air on the cloth (J; negative when it only drags, positive when wind pushes):
+  /// each substep's air force times the displacement in it.
+  double airWork = 0.0;
   /// Smallest vertex-obstacle or self-contact distance the step ended with (m; inf if none near).
   double minContactDistance = std::numeric_limits<double>::infinity();
 };

@@ -22,6 +22,7 @@
 #include <Eigen/SparseCholesky>
 #include <array>
 
+#include "fem_cloth/core/air.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
@@ -85,6 +86,7 @@ class ProjectiveDynamics final : public Integrator {
   VectorX tailWork_;
   // Scratch (sized once).
   VectorX xhat_, rhs_, xPrev_, xPrevPrev_, vStart_, force_, velocity_;
+  LaggedAir air_;  // air only
   double omega_ = 1.0;  // Chebyshev weight of the last iteration
   // Quasi-Newton: the gradient, a direction, a trial point and the L-BFGS curvature pairs.
   static constexpr int kMemory = 6;

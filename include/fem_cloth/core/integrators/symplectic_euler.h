@@ -13,6 +13,7 @@
 // distance are projected out to it with Coulomb friction (contact/contact_model.h).
 #pragma once
 
+#include "fem_cloth/core/air.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
@@ -57,6 +58,7 @@ class SymplecticEuler final : public Integrator {
   VectorX shifted_, shiftedGradient_, dampingForce_;  // stiffness damping only
   VectorX invSqrtMass_, powerU_, powerW_, powerS_;    // power iteration (stableStep)
   VectorX positionStart_;  // contact only
+  LaggedAir air_;  // air only
 };
 
 }  // namespace fem_cloth

@@ -20,6 +20,7 @@
 // with Coulomb friction at the end of each substep (contact/contact_model.h).
 #pragma once
 
+#include "fem_cloth/core/air.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
@@ -61,6 +62,7 @@ class Xpbd final : public Integrator {
 
   XpbdSettings settings_;
   VectorX xStart_, vStart_, inverseMass_;
+  LaggedAir air_;  // air only
   VectorX xPredicted_, elasticForce_, unbalanced_, velocity_;
   std::uint64_t contactChecksBefore_ = 0;
   const Model* stiffnessModel_ = nullptr;
