@@ -107,7 +107,8 @@ void AirModel::addHessian(const VectorX& v, double scale, SparseHessian& H) {
 double AirModel::explicitRate(const VectorX& v, const VectorX& vertexMasses) const {
   // Row sums of |d(force_a)/dv_b| <= sum over the vertex's triangles of 3 x |hr| / 9, with
   // |hr| <= 1/2 rho A (2 C_n |s| + 2 C_t |v_t|).
-  std::vector<double> rowSum(static_cast<std::size_t>(mesh_->numVertices()), 0.0);
+  std::vector<double>& rowSum = rowSum_;
+  rowSum.assign(static_cast<std::size_t>(mesh_->numVertices()), 0.0);
   for (std::size_t t = 0; t < mesh_->triangles.size(); ++t) {
     const Split p = split(relative(v, static_cast<Index>(t)), normal_[t]);
     const double bound = settings_.density * area_[t] *

@@ -67,6 +67,8 @@ class AirModel {
   // Hessian slots of each triangle's vertex pairs, for the pattern they were taken from.
   std::vector<int> offsets_;
   const SparseHessian* offsetsFor_ = nullptr;
+  // Scratch of explicitRate (per vertex), kept so that explicit substeps do not allocate.
+  mutable std::vector<double> rowSum_;
 };
 
 /// The explicit use of the air force (symplectic Euler, XPBD, projective dynamics): the
