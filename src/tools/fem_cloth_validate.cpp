@@ -123,7 +123,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> cases;
   std::vector<int> cells = {16};
   std::vector<double> gammas;
-  std::string model = "midedge", csv, jsonPath;
+  std::string model = "midedge", diagonals = "alternating", csv, jsonPath;
   app.add_option("--case", cases, "cases to run (repeatable or comma-separated; default all)")
       ->delimiter(',')
       ->check(CLI::IsMember(fem_cloth::validate::caseNames()));
@@ -135,6 +135,10 @@ int main(int argc, char** argv) {
   app.add_option("--gammas", gammas, "peirce: the gammas w l^3 / B (default 0.5,1,2,4,8,12,20)")
       ->delimiter(',')
       ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--diagonals", diagonals,
+                 "plate_clamped, plate_simply, beam_clamped: the triangulation (default alternating, "
+                 "makeGrid's checkerboard; uniform; crossed)")
+      ->check(CLI::IsMember(fem_cloth::validate::diagonalPatterns()));
   app.add_option("--csv", csv, "write the rows as CSV to this file");
   app.add_option("--json", jsonPath, "write the rows as JSON to this file");
   try {
@@ -147,6 +151,7 @@ int main(int argc, char** argv) {
   options.cells = cells;
   options.bendingModel = model;
   options.gammas = gammas;
+  options.diagonals = diagonals;
   std::vector<CaseRow> rows;
   for (const std::string& name : cases) {
     fem_cloth::Expected<std::vector<CaseRow>> result = fem_cloth::validate::runCase(name, options);

@@ -198,6 +198,56 @@ Expected<std::vector<CaseRow>> peirce(const CaseOptions& options) {
   return rows;
 }
 
+/// A grid scene (pins set) on the triangulation `pattern` names (CaseOptions::diagonals): the grid's
+/// vertices keep their indices, so its pins and vertex look-ups stay valid; "crossed" appends one
+/// vertex per cell centre, held when the cell's four corners are (a clamp cell stays a clamp).
+Expected<Scene> withDiagonals(Scene s, const std::string& pattern) {
+  if (pattern == "alternating") return s;
+  if (pattern != "uniform" && pattern != "crossed") {
+    return Error{"diagonals: unknown pattern '" + pattern + "' (known: alternating, uniform, crossed)"};
+  }
+  Expected<Mesh> grid = makeGrid(s.grid);
+  if (!grid) return Error{s.name + ": " + grid.error()};
+  Mesh mesh = *grid;
+  const int cols = s.grid.cols, rows = s.grid.rows;
+  std::vector<char> held(static_cast<std::size_t>(rows * cols), 0);
+  for (const ScenePin& pin : s.pins) {
+    for (Index v : pin.select.vertices) held[static_cast<std::size_t>(v)] = 1;
+  }
+  mesh.triangles.clear();
+  std::vector<Eigen::Vector3d> centres;
+  for (int r = 0; r + 1 < rows; ++r) {
+    for (int c = 0; c + 1 < cols; ++c) {
+      const Index v00 = r * cols + c, v01 = v00 + 1, v10 = v00 + cols, v11 = v10 + 1;
+      if (pattern == "uniform") {  // counter-clockwise, as makeGrid's
+        mesh.triangles.push_back({v00, v01, v11});
+        mesh.triangles.push_back({v00, v11, v10});
+        continue;
+      }
+      const Index centre = rows * cols + static_cast<Index>(centres.size());
+      centres.push_back(0.25 * (gridPoint(s, v00) + gridPoint(s, v01) + gridPoint(s, v10) + gridPoint(s, v11)));
+      mesh.triangles.push_back({v00, v01, centre});
+      mesh.triangles.push_back({v01, v11, centre});
+      mesh.triangles.push_back({v11, v10, centre});
+      mesh.triangles.push_back({v10, v00, centre});
+      if (held[v00] && held[v01] && held[v10] && held[v11] && !s.pins.empty()) {
+        s.pins.front().select.vertices.push_back(centre);
+      }
+    }
+  }
+  if (!centres.empty()) {
+    const Eigen::Index old = mesh.restPositions.size();
+    mesh.restPositions.conservativeResize(old + 3 * static_cast<Eigen::Index>(centres.size()));
+    for (std::size_t i = 0; i < centres.size(); ++i) {
+      mesh.restPositions.segment<3>(old + 3 * static_cast<Eigen::Index>(i)) = centres[i];
+    }
+  }
+  s.meshType = "explicit";
+  s.dim = 3;
+  s.explicitMesh = mesh;
+  return s;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Timoshenko's square plates
 // ---------------------------------------------------------------------------------------------
@@ -239,7 +289,9 @@ Expected<std::vector<CaseRow>> plate(bool clamped, const CaseOptions& options) {
     pinWhere(s, [&](const Eigen::Vector3d& p) {
       return p.x() <= tol || p.y() <= tol || p.x() >= a - tol || p.y() >= a - tol;
     });
-    Expected<Simulation> sim = build(s, options);
+    Expected<Scene> meshed = withDiagonals(s, options.diagonals);
+    if (!meshed) return Error{meshed.error()};
+    Expected<Simulation> sim = build(*meshed, options);
     if (!sim) return Error{sim.error()};
     const StaticResult statics = solveStatics(*sim);
     const int centre = (s.grid.rows / 2) * s.grid.cols + s.grid.cols / 2;
@@ -272,7 +324,9 @@ Expected<std::vector<CaseRow>> clampedStrip(const CaseOptions& options) {
     s.bendingPoissonRatio = 0.0;
     const double tol = 1e-9 * a;
     pinWhere(s, [&](const Eigen::Vector3d& p) { return p.x() <= tol || p.x() >= a - tol; });
-    Expected<Simulation> sim = build(s, options);
+    Expected<Scene> meshed = withDiagonals(s, options.diagonals);
+    if (!meshed) return Error{meshed.error()};
+    Expected<Simulation> sim = build(*meshed, options);
     if (!sim) return Error{sim.error()};
     const StaticResult statics = solveStatics(*sim);
     const int middle = s.grid.cols / 2;  // x = a / 2 (n even)
@@ -547,6 +601,11 @@ Expected<std::vector<CaseRow>> incline(const CaseOptions& options) {
 }
 
 }  // namespace
+
+const std::vector<std::string>& diagonalPatterns() {
+  static const std::vector<std::string> names = {"alternating", "uniform", "crossed"};
+  return names;
+}
 
 const std::vector<std::string>& caseNames() {
   static const std::vector<std::string> names = {"peirce",   "plate_clamped", "plate_simply",

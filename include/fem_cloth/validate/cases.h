@@ -57,7 +57,15 @@ struct CaseOptions {
   /// Multiplies the simulated moduli (Young's modulus, bending stiffness) but not the
   /// references: a wrong stiffness the validation must catch (its tests use 1.05).
   double modulusScale = 1.0;
+  /// The plates' (plate_clamped, plate_simply, beam_clamped) triangulation: "alternating"
+  /// (makeGrid's checkerboard of diagonals, the mesh a scene's grid gets), "uniform" (every
+  /// diagonal from (i, j) to (i + 1, j + 1)) or "crossed" (both diagonals: a vertex at each
+  /// cell's centre, four triangles). Other cases always use makeGrid's mesh.
+  std::string diagonals = "alternating";
 };
+
+/// The triangulations CaseOptions::diagonals names.
+const std::vector<std::string>& diagonalPatterns();
 
 /// The case names, in the order above.
 const std::vector<std::string>& caseNames();
