@@ -39,25 +39,29 @@ void Simulator::setAcceptance(const AcceptanceSettings& settings) {
   acceptance_ = StepAcceptance(settings);
 }
 
+double Simulator::kineticEnergy(const VectorX& v) const {
+  return 0.5 * v.dot(model_->dofMasses().cwiseProduct(v));
+}
+
 double Simulator::mechanicalEnergy() {
-  const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
   const EvalResult elastic = model_->evaluate(state_.x, EvalRequest{});
-  return kinetic + elastic.energy - gravityForce_.dot(state_.x);
+  return kineticEnergy(state_.v) + elastic.energy - gravityForce_.dot(state_.x);
+}
+
+double Simulator::storedEnergy(const State& s) {
+  return kineticEnergy(s.v) + model_->energies(s.x).total();
+}
+
+void Simulator::restartAccount() {
+  book_ = EnergyBook{};
+  pinForce_.setZero();
+  previousPinForce_.setZero();
 }
 
 void Simulator::snapshotInitial() {
-  initial_.state = state_;
-  initial_.pinned = pinned_;
-  initial_.pinTarget = pinTarget_;
-  initial_.pinVelocity = pinVelocity_;
-  initial_.forces = forces_;
-  initialPositions_ = state_.x;
-  externalWork_ = pinWork_ = contactWork_ = airWork_ = dissipated_ = liveWork_ = numerical_ = created_ = 0.0;
-  heldMost_ = 0.0;
-  pinForce_.setZero();
-  previousPinForce_.setZero();
-  const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
-  initialTotal_ = kinetic + model_->energies(state_.x).total();
+  initial_ = Initial{state_, pinned_, pinTarget_, pinVelocity_, forces_};
+  restartAccount();
+  initialTotal_ = storedEnergy(initial_.state);
 }
 
 Status Simulator::setInitialState(const VectorX& x, const VectorX& v) {
@@ -97,10 +101,7 @@ void Simulator::reset() {
   rebuildExternalForce();
   integrator_->invalidate();
   if (contact_) contact_->reset();
-  externalWork_ = pinWork_ = contactWork_ = airWork_ = dissipated_ = liveWork_ = numerical_ = created_ = 0.0;
-  heldMost_ = 0.0;
-  pinForce_.setZero();
-  previousPinForce_.setZero();
+  restartAccount();
   lastReport_ = StepReport();
   currentSubsteps_ = std::max(settings_.minSubsteps, 1);
   cleanSteps_ = 0;
@@ -121,22 +122,12 @@ void Simulator::continueFrom(Simulator& from) {
   currentSubsteps_ = from.currentSubsteps_;
   cleanSteps_ = from.cleanSteps_;
   initial_ = from.initial_;
-  initialPositions_ = from.initialPositions_;
-  externalWork_ = from.externalWork_;
-  pinWork_ = from.pinWork_;
-  contactWork_ = from.contactWork_;
-  airWork_ = from.airWork_;
-  dissipated_ = from.dissipated_;
-  numerical_ = from.numerical_;
-  created_ = from.created_;
-  heldMost_ = from.heldMost_;
+  book_ = from.book_;
   // What reset() goes back to is measured with the new parameters; the balance runs on
   // unbroken: the change's energy, the jump of the total here less that of the initial total.
-  const double kinetic0 = 0.5 * initial_.state.v.dot(model_->dofMasses().cwiseProduct(initial_.state.v));
-  initialTotal_ = kinetic0 + model_->energies(initial_.state.x).total();
-  liveWork_ = 0.0;
+  initialTotal_ = storedEnergy(initial_.state);
   const EnergyReport after = energies();
-  liveWork_ = from.liveWork_ + (after.total - before.total) - (initialTotal_ - from.initialTotal_);
+  book_.liveWork = from.book_.liveWork + (after.total - before.total) - (initialTotal_ - from.initialTotal_);
 }
 
 Status Simulator::checkVertex(Index vertex) const {
@@ -279,7 +270,7 @@ StepInput Simulator::stepInput(double dt) {
 Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& energy) {
   if (Status s = acceptance_.converged(r, dim()); !s) return s;
   if (Status s = acceptance_.valid(*model_, state_.x); !s) return s;
-  const double kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
+  const double kinetic = kineticEnergy(state_.v);
   const EvalResult end = model_->evaluate(state_.x, EvalRequest{});
   if (!end.inDomain) {
     return Error{"element " + std::to_string(end.firstBadElement) +
@@ -297,31 +288,32 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
   if (Status s = acceptance_.energyConserved(energy, integrator_->energyTolerance(), sizeScale_); !s) {
     return s;
   }
-  const double runScale = runEnergyScale(energy.held, energy.externalWork, energy.pinWork,
-                                         energy.contactWork, energy.airWork);
-  return acceptance_.runEnergyConserved(created_ - numerical_, energy, runScale);
+  return acceptance_.runEnergyConserved(book_.created - book_.numerical, energy, runEnergyScale(energy));
 }
 
-double Simulator::runEnergyScale(double held, double externalWork, double pinWork, double contactWork,
-                                 double airWork) const {
-  const double work = std::abs(externalWork_ + externalWork) + std::abs(pinWork_ + pinWork) +
-                      std::abs(contactWork_ + contactWork) + std::abs(airWork_ + airWork);
-  return std::max({sizeScale_, heldMost_, held, work});
+double Simulator::runEnergyScale(const EnergyStep& step) const {
+  const double work = std::abs(book_.externalWork + step.externalWork) + std::abs(book_.pinWork + step.pinWork) +
+                      std::abs(book_.contactWork + step.contactWork) + std::abs(book_.airWork + step.airWork);
+  return std::max({sizeScale_, book_.heldMost, step.held, work});
+}
+
+void Simulator::EnergyBook::add(const EnergyStep& step) {
+  externalWork += step.externalWork;
+  pinWork += step.pinWork;
+  contactWork += step.contactWork;
+  airWork += step.airWork;
+  dissipated += step.dissipated;
+  const double gained = step.created();
+  if (gained > 0.0) {
+    created += gained;
+  } else {
+    numerical -= gained;
+  }
+  heldMost = std::max(heldMost, step.held);
 }
 
 void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt) {
-  externalWork_ += energy.externalWork;
-  pinWork_ += energy.pinWork;
-  contactWork_ += energy.contactWork;
-  airWork_ += energy.airWork;
-  dissipated_ += energy.dissipated;
-  const double created = energy.created();
-  if (created > 0.0) {
-    created_ += created;
-  } else {
-    numerical_ -= created;
-  }
-  heldMost_ = std::max(heldMost_, energy.held);
+  book_.add(energy);
   energyNow_ = energy.end;
   if (contact_) contact_->commitStep();
   previousPinForce_ = pinForce_;
@@ -329,6 +321,84 @@ void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt)
   ++state_.step;
   pinTarget_.swap(stepPinTarget_);
   lastReport_ = r;
+}
+
+void Simulator::dropExpiredForces(double dt) {
+  const std::size_t before = forces_.size();
+  forces_.erase(std::remove_if(forces_.begin(), forces_.end(),
+                               [&](const Force& f) { return f.expiresAt <= state_.time + 1e-12 * dt; }),
+                forces_.end());
+  if (forces_.size() != before) rebuildExternalForce();
+}
+
+int Simulator::startingSubsteps() {
+  const int minSubsteps = std::max(settings_.minSubsteps, 1);
+  if (currentSubsteps_ > minSubsteps && cleanSteps_ >= kRelaxAfter) {
+    currentSubsteps_ = std::max(minSubsteps, currentSubsteps_ / 2);
+    cleanSteps_ = 0;
+  }
+  return std::max(minSubsteps, currentSubsteps_);
+}
+
+StepReport Simulator::attempt(const StepInput& input, double dt, int substeps, double energyStart,
+                              EnergyStep& energy) {
+  StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
+  if (r.ok && !(state_.x.allFinite() && state_.v.allFinite())) {
+    r.ok = false;
+    r.error = "the state became non-finite";
+  } else if (r.ok) {
+    if (Status s = accept(r, energyStart, energy); !s) {
+      r.ok = false;
+      r.error = integrator_->name() + ": " + s.error();
+    }
+  }
+  return r;
+}
+
+namespace {
+
+// The step's report from its latest attempt: the counts add up over the attempts, the rest is
+// the latest attempt's (the dissipation and pin work only of an accepted one: commit books them).
+void takeAttempt(StepReport& total, const StepReport& r) {
+  total.substeps = r.substeps;
+  total.newtonIterations += r.newtonIterations;
+  total.lineSearchBacktracks += r.lineSearchBacktracks;
+  total.iterations += r.iterations;
+  total.unbalanced = r.unbalanced;
+  total.residual = r.unbalanced.largest;
+  total.dtUsed = r.dtUsed;
+  total.contactChecks += r.contactChecks;
+  total.contacts = r.contacts;
+  total.contactWork = r.contactWork;
+  total.airWork = r.airWork;
+  total.minContactDistance = r.minContactDistance;
+  if (r.ok) {
+    total.dissipated = r.dissipated;
+    total.pinWork = r.pinWork;
+    total.ok = true;
+    total.error.clear();
+  } else {
+    total.ok = false;
+    total.error = r.error;
+  }
+}
+
+}  // namespace
+
+StepReport Simulator::failed(StepReport total, int substeps, const std::string& firstError, double energyStart) {
+  if (!firstError.empty() && firstError != total.error) {
+    // The retries may fail for another reason (a substep limit): the first one says what went wrong.
+    total.error += " (first attempt: " + firstError + ")";
+  }
+  energyNow_ = energyStart;
+  std::ostringstream msg;
+  msg << "step at t = " << state_.time << " s failed after " << total.rollbacks
+      << " rollbacks (last try: " << substeps << " substeps): " << total.error
+      << "; the state is unchanged";
+  total.error = msg.str();
+  pinForce_ = previousPinForce_;
+  lastReport_ = total;
+  return total;
 }
 
 StepReport Simulator::step(double dt) {
@@ -339,110 +409,58 @@ StepReport Simulator::step(double dt) {
     lastReport_ = total;
     return total;
   }
-  // Forces whose duration ended before this step no longer act.
-  const std::size_t before = forces_.size();
-  forces_.erase(std::remove_if(forces_.begin(), forces_.end(),
-                               [&](const Force& f) { return f.expiresAt <= state_.time + 1e-12 * dt; }),
-                forces_.end());
-  if (forces_.size() != before) rebuildExternalForce();
-
+  dropExpiredForces(dt);
   const StepInput input = stepInput(dt);
   backup_ = state_;
   const double energyStart = energyNow_ ? *energyNow_ : mechanicalEnergy();
   EnergyStep energy;
-  const int minSubsteps = std::max(settings_.minSubsteps, 1);
-  if (currentSubsteps_ > minSubsteps && cleanSteps_ >= kRelaxAfter) {
-    currentSubsteps_ = std::max(minSubsteps, currentSubsteps_ / 2);
-    cleanSteps_ = 0;
-  }
-  int substeps = std::max(minSubsteps, currentSubsteps_);
+  int substeps = startingSubsteps();
   std::string firstError;
-  for (int attempt = 0; attempt <= settings_.maxRetries; ++attempt) {
-    StepReport r = integrator_->step(input, state_, dt, substeps, pinForce_);
-    if (r.ok && !(state_.x.allFinite() && state_.v.allFinite())) {
-      r.ok = false;
-      r.error = "the state became non-finite";
-    } else if (r.ok) {
-      if (Status s = accept(r, energyStart, energy); !s) {
-        r.ok = false;
-        r.error = integrator_->name() + ": " + s.error();
-      }
-    }
-    total.substeps = r.substeps;
-    total.newtonIterations += r.newtonIterations;
-    total.lineSearchBacktracks += r.lineSearchBacktracks;
-    total.iterations += r.iterations;
-    total.unbalanced = r.unbalanced;
-    total.residual = r.unbalanced.largest;
-    total.dtUsed = r.dtUsed;
-    total.contactChecks += r.contactChecks;
-    total.contacts = r.contacts;
-    total.contactWork = r.contactWork;
-    total.airWork = r.airWork;
-    total.minContactDistance = r.minContactDistance;
+  for (int k = 0; k <= settings_.maxRetries; ++k) {
+    const StepReport r = attempt(input, dt, substeps, energyStart, energy);
+    takeAttempt(total, r);
     if (r.ok) {
-      total.dissipated = r.dissipated;
-      total.pinWork = r.pinWork;
-      total.ok = true;
-      total.error.clear();
-      if (attempt > 0) {
+      if (k > 0) {
         currentSubsteps_ = substeps;
         cleanSteps_ = 0;
       } else {
         ++cleanSteps_;
       }
-      break;
+      commit(total, energy, dt);
+      return total;
     }
-    total.ok = false;
-    total.error = r.error;
     if (firstError.empty()) firstError = r.error;
     state_ = backup_;
     integrator_->invalidate();
     if (!r.retryable) break;
-    if (attempt < settings_.maxRetries) {
+    if (k < settings_.maxRetries) {
       ++total.rollbacks;
       substeps = std::max(substeps, r.substeps) * 2;
     }
   }
-  if (!total.ok && !firstError.empty() && firstError != total.error) {
-    // The retries may fail for another reason (a substep limit): the first one says what went wrong.
-    total.error += " (first attempt: " + firstError + ")";
-  }
-  if (!total.ok) {
-    energyNow_ = energyStart;
-    std::ostringstream msg;
-    msg << "step at t = " << state_.time << " s failed after " << total.rollbacks
-        << " rollbacks (last try: " << substeps << " substeps): " << total.error
-        << "; the state is unchanged";
-    total.error = msg.str();
-    pinForce_ = previousPinForce_;
-    lastReport_ = total;
-    return total;
-  }
-  commit(total, energy, dt);
-  return total;
+  return failed(std::move(total), substeps, firstError, energyStart);
 }
 
 EnergyReport Simulator::energies() {
   EnergyReport e;
-  e.kinetic = 0.5 * state_.v.dot(model_->dofMasses().cwiseProduct(state_.v));
+  e.kinetic = kineticEnergy(state_.v);
   const Model::Energies elastic = model_->energies(state_.x);
   e.strain = elastic.membrane + elastic.other;
   e.bending = elastic.bending;
-  e.gravity = -gravityForce_.dot(state_.x - initialPositions_);
-  e.externalWork = externalWork_;
-  e.pinWork = pinWork_;
-  e.contactWork = contactWork_;
-  e.airWork = airWork_;
-  e.dissipated = dissipated_;
-  e.liveWork = liveWork_;
+  e.gravity = -gravityForce_.dot(state_.x - initial_.state.x);
+  e.externalWork = book_.externalWork;
+  e.pinWork = book_.pinWork;
+  e.contactWork = book_.contactWork;
+  e.airWork = book_.airWork;
+  e.dissipated = book_.dissipated;
+  e.liveWork = book_.liveWork;
   e.total = e.kinetic + e.strain + e.bending + e.gravity;
   e.balanceError = e.total - e.externalWork - e.pinWork - e.contactWork - e.airWork - e.liveWork +
                    e.dissipated -
                    initialTotal_;
-  e.numericalDissipation = numerical_;
-  e.created = created_;
-  e.energyScale = runEnergyScale(0.0, 0.0, 0.0, 0.0, 0.0);
+  e.numericalDissipation = book_.numerical;
+  e.created = book_.created;
+  e.energyScale = runEnergyScale(EnergyStep{});
   return e;
 }
 

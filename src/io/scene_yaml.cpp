@@ -684,11 +684,14 @@ Expected<YAML::Node> loadSceneDocument(const std::string& path,
   return doc;
 }
 
-Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides) {
+Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides,
+                          YAML::Node* document) {
   Expected<YAML::Node> doc = loadSceneDocument(path, overrides);
   if (!doc) return Error{doc.error()};
   Expected<Scene> scene = parseScene(*doc, path);
   if (!scene) return Error{path + ": " + scene.error()};
+  // reset, not =: a Node's assignment writes into the node it refers to.
+  if (document != nullptr) document->reset(*doc);
   return scene;
 }
 

@@ -165,6 +165,90 @@ void progress(std::size_t done, std::size_t total) {
   std::fflush(stderr);
 }
 
+// The states to draw: for frame times k / fps of simulation time, the first state at or after
+// each (a state that is the first for several frame times is drawn once).
+std::vector<std::size_t> pickFrames(const std::vector<ClothState>& headers, double dt, double fps) {
+  std::vector<std::size_t> picked;
+  std::size_t frame = 0;
+  for (std::size_t k = 0; k < headers.size(); ++k) {
+    const double t = static_cast<double>(headers[k].step) * dt;
+    if (t + 1e-9 < static_cast<double>(frame) / fps) continue;
+    picked.push_back(k);
+    while (static_cast<double>(frame) / fps <= t + 1e-9) ++frame;
+  }
+  return picked;
+}
+
+// Draws states into numbered PNG files: the cloth and the obstacles at their poses of the time,
+// and with --depth the depth image; keeps the processor time it spent rendering and writing.
+class FrameWriter {
+ public:
+  FrameWriter(const Options& o, const CameraSettings& camera, const Model& model,
+              const ContactModel* contact, const RecordedRun& recorded)
+      : o_(o), camera_(camera), mesh_(model.mesh()), rest_(model.rest()), recorded_(recorded),
+        view_(camera.intrinsics, camera.minRange, camera.maxRange) {
+    look_.byStrain = o.byStrain;
+    if (contact != nullptr) {
+      for (std::size_t k = 0; k < contact->numObstacles(); ++k) obstacles_.push_back(contact->obstacle(k));
+    }
+  }
+
+  // Frame number f: the state x at simulation time t (ROS time `stamp`).
+  Status write(std::size_t f, const VectorX& x, double t, const ros::Time& stamp) {
+    const std::clock_t begin = std::clock();
+    vertexNormals(mesh_, x, normals_);
+    clothVertexColours(mesh_, rest_, x, normals_, look_, colours_);
+    view_.render(*camera_.pose, mesh_, x, colours_, obstaclesAt(obstacles_, recorded_, t, stamp), style_);
+    const std::clock_t rendered = std::clock();
+    renderSeconds_ += seconds(begin, rendered);
+    const int width = camera_.intrinsics.width, height = camera_.intrinsics.height;
+    char name[32];
+    std::snprintf(name, sizeof(name), "frame_%05zu.png", f);
+    Status s = writePng(o_.out + "/" + name, width, height, true, view_.image().rgb().data());
+    if (s && o_.depth) {
+      std::snprintf(name, sizeof(name), "depth_%05zu.png", f);
+      s = writePng(o_.out + "/" + name, width, height, false, depthMillimetres(view_.image().depth()).data());
+    }
+    if (s) writeSeconds_ += seconds(rendered, std::clock());
+    return s;
+  }
+
+  double renderSeconds() const { return renderSeconds_; }
+  double writeSeconds() const { return writeSeconds_; }
+
+ private:
+  // Processor time of this process (the renderer is single-threaded): on a shared machine wall
+  // time says more about the other processes than about ours.
+  static double seconds(std::clock_t a, std::clock_t b) { return static_cast<double>(b - a) / CLOCKS_PER_SEC; }
+
+  const Options& o_;
+  const CameraSettings& camera_;
+  const Mesh& mesh_;
+  const RestState& rest_;
+  const RecordedRun& recorded_;
+  std::vector<Obstacle> obstacles_;
+  ClothLook look_;
+  ViewStyle style_;
+  SceneView view_;
+  std::vector<Eigen::Vector3d> normals_;
+  std::vector<Colour> colours_;
+  double renderSeconds_ = 0.0, writeSeconds_ = 0.0;
+};
+
+// The camera of --view, or one framing the first and last states; --width/--height resize it.
+Expected<CameraSettings> chooseCamera(const Options& o, const Mesh& mesh, const std::vector<VectorX>& states) {
+  Expected<CameraSettings> camera = o.view.empty()
+                                        ? Expected<CameraSettings>(framingCamera(mesh, {&states.front(), &states.back()}))
+                                        : viewCamera(o.view);
+  if (camera && (o.width > 0 || o.height > 0)) {
+    // Another size with the same field of view.
+    const double fov = 2.0 * std::atan(0.5 * camera->intrinsics.width / camera->intrinsics.fx);
+    camera->intrinsics = CameraIntrinsics::fromHorizontalFov(o.width > 0 ? o.width : camera->intrinsics.width,
+                                                             o.height > 0 ? o.height : camera->intrinsics.height, fov);
+  }
+  return camera;
+}
+
 int run(const Options& o) {
   Expected<RecordedRun> recorded = readRun(o.bag, o.node);
   if (!recorded) {
@@ -182,81 +266,31 @@ int run(const Options& o) {
     return 2;
   }
   const Model& model = simulation->simulator->model();
-  const Mesh* mesh = &model.mesh();
-  std::vector<Obstacle> obstacles;
-  if (const ContactModel* contact = simulation->simulator->contact()) {
-    for (std::size_t k = 0; k < contact->numObstacles(); ++k) obstacles.push_back(contact->obstacle(k));
-  }
   std::vector<ClothState> headers;
-  const std::vector<VectorX> states = readPositions(o.bag, RunTopics(o.node).state, mesh->dim, &headers);
-  Expected<CameraSettings> camera = o.view.empty() ? Expected<CameraSettings>(framingCamera(*mesh, {&states.front(), &states.back()}))
-                                                   : viewCamera(o.view);
+  const std::vector<VectorX> states = readPositions(o.bag, RunTopics(o.node).state, model.mesh().dim, &headers);
+  const Expected<CameraSettings> camera = chooseCamera(o, model.mesh(), states);
   if (!camera) {
     std::cerr << "fem_cloth_render: " << camera.error() << "\n";
     return 2;
   }
-  if (o.width > 0 || o.height > 0) {
-    // Another size with the same field of view.
-    const double fov = 2.0 * std::atan(0.5 * camera->intrinsics.width / camera->intrinsics.fx);
-    camera->intrinsics = CameraIntrinsics::fromHorizontalFov(o.width > 0 ? o.width : camera->intrinsics.width,
-                                                             o.height > 0 ? o.height : camera->intrinsics.height, fov);
-  }
   std::filesystem::create_directories(o.out);
-  const RestState& rest = model.rest();
-  ClothLook look;
-  look.byStrain = o.byStrain;
-  ViewStyle style;
-  SceneView view(camera->intrinsics, camera->minRange, camera->maxRange);
-  // The states to draw: for frame times k / fps of simulation time, the first state at or after
-  // each (a state that is the first for several frame times is drawn once).
-  std::vector<std::size_t> picked;
-  std::size_t frame = 0;
-  for (std::size_t k = 0; k < states.size(); ++k) {
-    const double t = static_cast<double>(headers[k].step) * scene->dt;
-    if (t + 1e-9 < static_cast<double>(frame) / o.fps) continue;
-    picked.push_back(k);
-    while (static_cast<double>(frame) / o.fps <= t + 1e-9) ++frame;
-  }
-  // Processor time of this process (the renderer is single-threaded): on a shared machine wall
-  // time says more about the other processes than about ours.
-  struct Clock {
-    static std::clock_t now() { return std::clock(); }
-  };
-  auto seconds = [](std::clock_t a, std::clock_t b) { return static_cast<double>(b - a) / CLOCKS_PER_SEC; };
-  double renderSeconds = 0.0, writeSeconds = 0.0;
-  std::vector<Eigen::Vector3d> normals;
-  std::vector<Colour> colours;
+  FrameWriter writer(o, *camera, model, simulation->simulator->contact(), *recorded);
+  const std::vector<std::size_t> picked = pickFrames(headers, scene->dt, o.fps);
   for (std::size_t f = 0; f < picked.size(); ++f) {
-    const VectorX& x = states[picked[f]];
-    const double t = static_cast<double>(headers[picked[f]].step) * scene->dt;
-    const auto begin = Clock::now();
-    vertexNormals(*mesh, x, normals);
-    clothVertexColours(*mesh, rest, x, normals, look, colours);
-    view.render(*camera->pose, *mesh, x, colours, obstaclesAt(obstacles, *recorded, t, headers[picked[f]].header.stamp), style);
-    const auto rendered = Clock::now();
-    renderSeconds += seconds(begin, rendered);
-    char name[32];
-    std::snprintf(name, sizeof(name), "frame_%05zu.png", f);
-    Status s = writePng(o.out + "/" + name, camera->intrinsics.width, camera->intrinsics.height, true,
-                        view.image().rgb().data());
-    if (s && o.depth) {
-      std::snprintf(name, sizeof(name), "depth_%05zu.png", f);
-      s = writePng(o.out + "/" + name, camera->intrinsics.width, camera->intrinsics.height, false,
-                   depthMillimetres(view.image().depth()).data());
-    }
-    if (!s) {
+    const ClothState& header = headers[picked[f]];
+    const double t = static_cast<double>(header.step) * scene->dt;
+    if (Status s = writer.write(f, states[picked[f]], t, header.header.stamp); !s) {
       std::cerr << "\nfem_cloth_render: " << s.error() << "\n";
       return 2;
     }
-    writeSeconds += seconds(rendered, Clock::now());
     if (!o.quiet) progress(f + 1, picked.size());
   }
   const double frames = static_cast<double>(std::max<std::size_t>(picked.size(), 1));
   std::cout << "fem_cloth_render: " << picked.size() << " frames of " << camera->intrinsics.width << " x "
             << camera->intrinsics.height << " (" << states.size() << " states, "
             << static_cast<double>(headers.back().step) * scene->dt << " s) in " << o.out
-            << "; processor time a frame: rendering " << 1e3 * renderSeconds / frames
-            << " ms, writing " << 1e3 * writeSeconds / frames << " ms\n";
+            << "; processor time a frame: rendering " << 1e3 * writer.renderSeconds() / frames
+            << " ms, writing " << 1e3 * writer.writeSeconds() / frames << " ms\n";
   return 0;
 }
 

@@ -34,6 +34,8 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
+#include <memory>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -69,9 +71,9 @@ struct Options {
   std::string cellResults;      // ... and write their results here (JSON), nothing else
   std::string fromCellResults;  // stability: the cells' results from this folder, not run here
   int repeats = 3;
-  double repeatBudget = 2.0;
-  double referenceResolution = 0.25;
-  double duration = 0.0;  // work precision: simulated time of every scene (0: the scene's own)  // reference step / CFL bound (h omega_max = 0.5)  // s: no further repeats once a setting has run this long
+  double repeatBudget = 2.0;          // s: no further repeats once a setting has run this long
+  double referenceResolution = 0.25;  // reference step / CFL bound (h omega_max = 0.5)
+  double duration = 0.0;  // work precision: simulated time of every scene (0: the scene's own)
   // s of stepping per stability cell: a cell that needs more is "too_slow" (for 0.1-0.15 s of a
   // 9 x 9 cloth, a real-time factor below 1/100).
   double cellBudget = 15.0;
@@ -171,6 +173,338 @@ struct WorkPrecisionRow {
 // ------------------------------------------------------------------------------------------------
 // Work precision
 // ------------------------------------------------------------------------------------------------
+// The study's CSV files, opened with their header lines.
+struct WorkPrecisionFiles {
+  std::ofstream wp, overTime, refs, orders, targets;
+
+  explicit WorkPrecisionFiles(const std::string& out)
+      : wp(out + "/work_precision.csv"), overTime(out + "/error_over_time.csv"),
+        refs(out + "/references.csv"), orders(out + "/orders.csv"), targets(out + "/targets.csv") {
+    wp << "scene,label,integrator,dt,status,wall_s,repeats,steps,substeps,newton_iterations,"
+          "rollbacks,rms_end,max_end,rms_over_time,max_over_time,balance_end,balance_max_abs,"
+          "energy_scale_j,max_stretch,max_stretch_reference,error\n";
+    overTime << "scene,label,dt,t,rms,max\n";
+    refs << "scene,description,dt,cfl_bound_s,omega_max,newton_tolerance,duration,samples,cloth_size_m,wall_s,cached,key,"
+            "check_dt,check_rms_end,check_rms_over_time,check_max_over_time,max_stretch,balance_end\n";
+    orders << "scene,label,integrator,points,order_rms_end,order_rms_over_time,order_finest,"
+              "pairwise_rms_end\n";
+    targets << "scene,target,label,integrator,dt,wall_s,rms_over_time\n";
+  }
+};
+
+// The reference's step of a scene and the scene's CFL bound 2 / omega_max (s). The reference:
+// BDF2 with a tight Newton tolerance and a step that resolves the fastest mode of the mesh (a
+// quarter of the CFL bound, so h omega_max <= 0.5) and is at least 8x finer than the finest
+// tested step; and the same at twice its step, whose difference from it bounds the reference's
+// own error. Its steps per sample are a multiple of 2 q, q the command steps per sample, so that
+// the reference and its check both sample at the same times and apply every recorded command at
+// its stamp.
+Expected<std::pair<double, double>> referenceStep(const Options& opt, const AccuracyScene& s) {
+  std::vector<std::string> overrides = opt.overrides;
+  overrides.push_back("integrator.name=bdf2");
+  Expected<YAML::Node> probe = withOverrides(s.document, overrides);
+  Expected<double> cfl = probe ? cflBound(*probe) : Expected<double>(Error{probe.error()});
+  if (!cfl) return Error{cfl.error()};
+  const double target = std::min(s.referenceDt, opt.referenceResolution * *cfl);
+  const double q = s.commandGrid > 0.0 ? std::round(s.sampleInterval / s.commandGrid) : 1.0;
+  const double perSample = 2.0 * q * std::ceil(s.sampleInterval / target / (2.0 * q) - 1e-9);
+  return std::pair{s.sampleInterval / perSample, *cfl};
+}
+
+// A tested step must divide the scene's sample interval and divide or be a multiple of its
+// command grid; the sample interval must divide the duration.
+bool stepFitsScene(const AccuracyScene& s, double dt) {
+  return wholeSteps(s.sampleInterval, dt) && wholeSteps(s.duration, s.sampleInterval) &&
+         (!(s.commandGrid > 0.0) || ((wholeSteps(s.commandGrid, dt) || wholeSteps(dt, s.commandGrid)) &&
+                                   wholeSteps(s.sampleInterval, s.commandGrid)));
+}
+
+// The settings a scene runs: every variant, or for a scene that wants the default settings the
+// first variant of each integrator.
+std::vector<const Variant*> sceneVariants(const AccuracyScene& s, const std::vector<Variant>& variants) {
+  std::vector<const Variant*> out;
+  std::set<std::string> seen;
+  for (const Variant& variant : variants) {
+    if (s.defaultSettingsOnly && !seen.insert(variant.integrator).second) continue;
+    out.push_back(&variant);
+  }
+  return out;
+}
+
+// A run of the scene with the report's --set overrides, then `overrides`, for its duration.
+Expected<RunRequest> runRequest(const Options& opt, const AccuracyScene& s,
+                                const std::vector<std::string>& overrides) {
+  std::vector<std::string> all = opt.overrides;
+  all.insert(all.end(), overrides.begin(), overrides.end());
+  all.push_back(setting("duration", s.duration));
+  Expected<YAML::Node> doc = withOverrides(s.document, all);
+  if (!doc) return Error{doc.error()};
+  RunRequest r;
+  r.scene = *doc;
+  r.commands = s.recording;
+  r.recordedDt = s.recording ? s.document["integrator"]["dt"].as<double>(0.01) : 0.0;
+  r.duration = s.duration;
+  r.sampleInterval = s.sampleInterval;
+  return r;
+}
+
+// One setting at one step: its first run, and the median wall time of up to --repeats runs (no
+// more once they took --repeat-budget).
+WorkPrecisionRow runSetting(const Options& opt, const AccuracyScene& s, const Variant& variant, double dt,
+                            bool& nonFinite) {
+  WorkPrecisionRow row;
+  row.scene = s.name;
+  row.label = variant.label;
+  row.integrator = variant.integrator;
+  row.dt = dt;
+  std::vector<std::string> overrides = variant.overrides;
+  overrides.push_back(setting("integrator.dt", dt));
+  Expected<RunRequest> req = runRequest(opt, s, overrides);
+  if (!req) {
+    row.status = "n/a";
+    row.error = req.error();
+    return row;
+  }
+  std::vector<double> walls;
+  double spent = 0.0;
+  do {
+    RunResult r = runScene(*req);
+    walls.push_back(r.wall);
+    spent += r.wall;
+    if (walls.size() == 1) row.run = std::move(r);
+  } while (row.run.outcome == RunResult::Outcome::Completed &&
+           static_cast<int>(walls.size()) < opt.repeats && spent < opt.repeatBudget);
+  row.wall = median(walls);
+  row.repeats = static_cast<int>(walls.size());
+  row.error = row.run.error;
+  switch (row.run.outcome) {
+    case RunResult::Outcome::Completed: row.status = "ok"; break;
+    // The reference built, so the scene is sound: the integrator refuses it.
+    case RunResult::Outcome::BuildError: row.status = "n/a"; break;
+    default: row.status = outcomeName(row.run.outcome);
+  }
+  if (row.run.outcome == RunResult::Outcome::NonFinite) nonFinite = true;
+  return row;
+}
+
+// The study: every chosen scene's reference and its check, then every setting at every step,
+// then the convergence orders and the cheapest runs reaching each error target.
+class WorkPrecisionStudy {
+ public:
+  WorkPrecisionStudy(const Options& opt, std::vector<AccuracyScene> scenes, std::vector<Variant> variants)
+      : opt_(opt), scenes_(std::move(scenes)), variants_(std::move(variants)), files_(opt.out),
+        cache_(opt.cache.empty() ? opt.out + "/cache" : opt.cache) {}
+
+  // The exit status of the report (0, 2 or 3); a non-finite run sets nonFinite.
+  int run(std::ostream& summary, bool& nonFinite) {
+    if (int status = plan(); status != 0) return status;
+    progress_ = std::make_unique<Progress>("work precision", totalWeight_, !opt_.quiet);
+    for (const AccuracyScene& s : scenes_) {
+      std::optional<Reference> reference;
+      if (int status = runReferences(s, reference); status != 0) return status;
+      for (const Variant* variant : sceneVariants(s, variants_)) {
+        for (double dt : s.dts) {
+          report(s.name + " " + variant->label + " dt " + dtName(dt));
+          WorkPrecisionRow row = runSetting(opt_, s, *variant, dt, nonFinite);
+          const RunResult& R = reference->run;
+          row.errors = positionErrors(row.run.samples, R.samples, R.dim, R.clothSize);
+          writeRow(row, R);
+          rows_.push_back(std::move(row));
+          done(s.duration / dt);
+        }
+      }
+      report(s.name + " done");
+    }
+    summariseOrders(summary);
+    summariseTargets(summary);
+    summary << '\n';
+    return 0;
+  }
+
+ private:
+  // The reference steps, the steps' check and the total weight (steps to simulate) for the
+  // progress line.
+  int plan() {
+    for (const AccuracyScene& s : scenes_) {
+      Expected<std::pair<double, double>> step = referenceStep(opt_, s);
+      if (!step) {
+        std::cerr << "fem_cloth_report: " << s.name << ": " << step.error() << '\n';
+        return 2;
+      }
+      referenceSteps_[s.name] = *step;
+    }
+    for (const AccuracyScene& s : scenes_) {
+      for (double dt : s.dts) {
+        if (!stepFitsScene(s, dt)) {
+          std::cerr << "fem_cloth_report: scene " << s.name << ": dt = " << dt << " s must divide the "
+                    << "sample interval " << s.sampleInterval << " s and divide or be a multiple of its "
+                    << "command grid; the sample interval must divide the duration\n";
+          return 2;
+        }
+      }
+      // The reference and its check at twice its step.
+      totalWeight_ += 1.5 * s.duration / referenceSteps_[s.name].first;
+      totalItems_ += 2;
+      for (std::size_t k = 0; k < sceneVariants(s, variants_).size(); ++k) {
+        for (double dt : s.dts) {
+          totalWeight_ += s.duration / dt;
+          ++totalItems_;
+        }
+      }
+    }
+    return 0;
+  }
+
+  // The reference of a scene and its check at twice the step: references.csv, and the check's
+  // error over time in error_over_time.csv.
+  int runReferences(const AccuracyScene& s, std::optional<Reference>& reference) {
+    const auto [referenceDt, cfl] = referenceSteps_.at(s.name);
+    std::vector<double> checkErrors;
+    for (const double refDt : {referenceDt, 2.0 * referenceDt}) {
+      report(s.name + " reference dt " + num(refDt, 3));
+      Expected<RunRequest> req = runRequest(opt_, s, {"integrator.name=bdf2", setting("integrator.dt", refDt),
+                                                      setting("integrator.newton_tolerance", s.referenceTolerance)});
+      if (!req) {
+        std::cerr << "fem_cloth_report: " << s.name << ": " << req.error() << '\n';
+        return 2;
+      }
+      Expected<Reference> ref = cachedReference(*req, s.commandsBag, cache_);
+      if (!ref) {
+        std::cerr << "fem_cloth_report: " << s.name << ": " << ref.error() << '\n';
+        return 3;
+      }
+      done(s.duration / refDt);
+      if (!reference) {
+        reference = std::move(ref).value();
+        continue;
+      }
+      const PositionErrors check = positionErrors(ref->run.samples, reference->run.samples,
+                                                  reference->run.dim, reference->run.clothSize);
+      checkErrors = {check.rmsEnd, check.rmsOverTime, check.maxOverTime};
+      for (std::size_t k = 0; k < check.rms.size(); ++k) {
+        files_.overTime << s.name << ",reference check," << num(2.0 * referenceDt, 17) << ','
+                        << num(reference->run.sampleTimes[k], 10) << ',' << num(check.rms[k]) << ','
+                        << num(check.max[k]) << '\n';
+      }
+    }
+    const RunResult& R = reference->run;
+    files_.refs << s.name << ',' << csvText(s.description) << ',' << num(referenceDt, 17) << ','
+                << num(cfl) << ',' << num(2.0 / cfl) << ',' << s.referenceTolerance << ',' << s.duration << ','
+                << R.samples.size() << ',' << num(R.clothSize) << ',' << num(R.wall) << ','
+                << (reference->cached ? 1 : 0) << ',' << reference->key << ',' << num(2 * referenceDt, 17) << ','
+                << num(checkErrors[0]) << ',' << num(checkErrors[1]) << ',' << num(checkErrors[2]) << ','
+                << num(R.maxStretch) << ',' << num(R.balanceEnd) << '\n';
+    files_.refs.flush();
+    return 0;
+  }
+
+  // A setting's row of work_precision.csv and its error over time, against the reference R.
+  void writeRow(const WorkPrecisionRow& row, const RunResult& R) {
+    const double scale = row.run.weightScale > 0.0 ? row.run.weightScale : R.weightScale;
+    files_.wp << row.scene << ',' << csvText(row.label) << ',' << row.integrator << ',' << num(row.dt, 17)
+              << ',' << row.status << ',' << num(row.wall) << ',' << row.repeats << ','
+              << row.run.steps << ',' << row.run.substeps << ',' << row.run.newtonIterations << ','
+              << row.run.rollbacks << ',' << num(row.errors.rmsEnd) << ',' << num(row.errors.maxEnd)
+              << ',' << num(row.errors.rmsOverTime) << ',' << num(row.errors.maxOverTime) << ','
+              << num(row.run.balanceEnd / scale) << ',' << num(row.run.balanceMaxAbs / scale) << ','
+              << num(scale) << ',' << num(row.run.maxStretch) << ',' << num(R.maxStretch) << ','
+              << csvText(row.error) << '\n';
+    files_.wp.flush();
+    for (std::size_t k = 0; k < row.errors.rms.size(); ++k) {
+      files_.overTime << row.scene << ',' << csvText(row.label) << ',' << num(row.dt, 17) << ','
+                      << num(R.sampleTimes[k], 10) << ',' << num(row.errors.rms[k]) << ','
+                      << num(row.errors.max[k]) << '\n';
+    }
+  }
+
+  // Orders: slope of log error against log dt, over all completed runs of a setting, and over
+  // its three finest steps (closest to the asymptotic range).
+  void summariseOrders(std::ostream& summary) {
+    summary << "== Convergence orders (slope of log error against log dt; RMS position error)\n";
+    summary << std::left << std::setw(14) << "scene" << std::setw(26) << "setting" << std::setw(10)
+            << "at end" << std::setw(12) << "over time" << std::setw(14) << "finest 3"
+            << "pairwise (coarse to fine)\n";
+    for (const AccuracyScene& s : scenes_) {
+      for (const Variant& variant : variants_) {
+        std::vector<double> dts, end, overall;
+        for (const WorkPrecisionRow& r : rows_) {
+          if (r.scene != s.name || r.label != variant.label || r.status != "ok") continue;
+          dts.push_back(r.dt);
+          end.push_back(r.errors.rmsEnd);
+          overall.push_back(r.errors.rmsOverTime);
+        }
+        if (dts.empty()) continue;
+        const double pEnd = fittedOrder(dts, end), pTime = fittedOrder(dts, overall);
+        const std::size_t k = dts.size() >= 3 ? dts.size() - 3 : 0;
+        const double pFine = fittedOrder(std::vector<double>(dts.begin() + k, dts.end()),
+                                         std::vector<double>(end.begin() + k, end.end()));
+        std::string pairwise;
+        for (std::size_t i = 1; i < dts.size(); ++i) {
+          pairwise += (i > 1 ? " " : "") + num(std::log(end[i - 1] / end[i]) / std::log(dts[i - 1] / dts[i]), 3);
+        }
+        files_.orders << s.name << ',' << csvText(variant.label) << ',' << variant.integrator << ','
+                      << dts.size() << ',' << num(pEnd, 4) << ',' << num(pTime, 4) << ',' << num(pFine, 4)
+                      << ',' << pairwise << '\n';
+        summary << std::left << std::setw(14) << s.name << std::setw(26) << variant.label
+                << std::setw(10) << num(pEnd, 3) << std::setw(12) << num(pTime, 3) << std::setw(14)
+                << num(pFine, 3) << pairwise << '\n';
+      }
+    }
+  }
+
+  // The ranking: for each error target, the cheapest run of each setting that reaches it.
+  void summariseTargets(std::ostream& summary) {
+    summary << "\n== Cheapest run reaching an RMS error over time (relative to the cloth size)\n";
+    for (const AccuracyScene& s : scenes_) {
+      for (double target : {1e-1, 1e-2, 1e-3}) {
+        const std::vector<const WorkPrecisionRow*> best = cheapestReaching(s, target);
+        summary << s.name << ", error <= " << num(target) << ": ";
+        if (best.empty()) summary << "no run";
+        for (std::size_t i = 0; i < best.size(); ++i) {
+          const WorkPrecisionRow& r = *best[i];
+          files_.targets << s.name << ',' << num(target) << ',' << csvText(r.label) << ',' << r.integrator
+                         << ',' << num(r.dt, 17) << ',' << num(r.wall) << ',' << num(r.errors.rmsOverTime) << '\n';
+          if (i < 4) summary << (i ? "; " : "") << r.label << " dt " << dtName(r.dt) << " " << num(r.wall, 3) << " s";
+        }
+        summary << '\n';
+      }
+    }
+  }
+
+  // The cheapest completed run of each setting of a scene within the target error, cheapest first.
+  std::vector<const WorkPrecisionRow*> cheapestReaching(const AccuracyScene& s, double target) const {
+    std::vector<const WorkPrecisionRow*> best;
+    for (const Variant& variant : variants_) {
+      const WorkPrecisionRow* cheapest = nullptr;
+      for (const WorkPrecisionRow& r : rows_) {
+        if (r.scene != s.name || r.label != variant.label || r.status != "ok") continue;
+        if (!(r.errors.rmsOverTime <= target)) continue;
+        if (cheapest == nullptr || r.wall < cheapest->wall) cheapest = &r;
+      }
+      if (cheapest) best.push_back(cheapest);
+    }
+    std::sort(best.begin(), best.end(), [](auto* a, auto* b) { return a->wall < b->wall; });
+    return best;
+  }
+
+  void report(const std::string& what) { progress_->update(doneWeight_, doneItems_, totalItems_, what); }
+  void done(double weight) {
+    doneWeight_ += weight;
+    ++doneItems_;
+  }
+
+  const Options& opt_;
+  const std::vector<AccuracyScene> scenes_;
+  const std::vector<Variant> variants_;
+  WorkPrecisionFiles files_;
+  const std::string cache_;
+  std::map<std::string, std::pair<double, double>> referenceSteps_;  // scene: (dt, CFL bound)
+  std::unique_ptr<Progress> progress_;
+  double totalWeight_ = 0.0, doneWeight_ = 0.0;
+  int totalItems_ = 0, doneItems_ = 0;
+  std::vector<WorkPrecisionRow> rows_;
+};
+
 int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
   if (!opt.recordingError.empty()) {
     std::cerr << "fem_cloth_report: " << opt.recordingError << '\n';
@@ -185,259 +519,13 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
   for (const std::string& name : integratorNames()) {
     if (selected(opt.integrators, name)) integrators.push_back(name);
   }
-  const std::vector<Variant> variants = workPrecisionVariants(integrators, opt.small);
-  const std::string cache = opt.cache.empty() ? opt.out + "/cache" : opt.cache;
-
-  std::ofstream wp(opt.out + "/work_precision.csv"), overTime(opt.out + "/error_over_time.csv"),
-      refs(opt.out + "/references.csv"), orders(opt.out + "/orders.csv"),
-      targets(opt.out + "/targets.csv");
-  wp << "scene,label,integrator,dt,status,wall_s,repeats,steps,substeps,newton_iterations,"
-        "rollbacks,rms_end,max_end,rms_over_time,max_over_time,balance_end,balance_max_abs,"
-        "energy_scale_j,max_stretch,max_stretch_reference,error\n";
-  overTime << "scene,label,dt,t,rms,max\n";
-  refs << "scene,description,dt,cfl_bound_s,omega_max,newton_tolerance,duration,samples,cloth_size_m,wall_s,cached,key,"
-          "check_dt,check_rms_end,check_rms_over_time,check_max_over_time,max_stretch,balance_end\n";
-  orders << "scene,label,integrator,points,order_rms_end,order_rms_over_time,order_finest,"
-            "pairwise_rms_end\n";
-  targets << "scene,target,label,integrator,dt,wall_s,rms_over_time\n";
-
   std::vector<AccuracyScene> chosen;
   for (AccuracyScene& s : *scenes) {
     if (opt.duration > 0.0) s.duration = opt.duration;
     if (selected(opt.scenes, s.name)) chosen.push_back(s);
   }
-  // The reference: BDF2 with a tight Newton tolerance and a step that resolves the fastest mode
-  // of the mesh (a quarter of the CFL bound 2 / omega_max, so h omega_max <= 0.5) and is at
-  // least 8x finer than the finest tested step; and the same at twice its step, whose
-  // difference from it bounds the reference's own error. Its steps per sample are a multiple of
-  // 2 q, q the command steps per sample, so that the reference and its check both sample at the
-  // same times and apply every recorded command at its stamp.
-  std::map<std::string, std::pair<double, double>> referenceSteps;  // scene: (dt, CFL bound)
-  for (const AccuracyScene& s : chosen) {
-    std::vector<std::string> overrides = opt.overrides;
-    overrides.push_back("integrator.name=bdf2");
-    Expected<YAML::Node> probe = withOverrides(s.document, overrides);
-    Expected<double> cfl = probe ? cflBound(*probe) : Expected<double>(Error{probe.error()});
-    if (!cfl) {
-      std::cerr << "fem_cloth_report: " << s.name << ": " << cfl.error() << '\n';
-      return 2;
-    }
-    const double target = std::min(s.referenceDt, opt.referenceResolution * *cfl);
-    const double q = s.commandGrid > 0.0 ? std::round(s.sampleInterval / s.commandGrid) : 1.0;
-    const double perSample = 2.0 * q * std::ceil(s.sampleInterval / target / (2.0 * q) - 1e-9);
-    referenceSteps[s.name] = {s.sampleInterval / perSample, *cfl};
-  }
-  double totalWeight = 0.0;
-  int totalItems = 0;
-  for (const AccuracyScene& s : chosen) {
-    for (double dt : s.dts) {
-      if (!wholeSteps(s.sampleInterval, dt) || !wholeSteps(s.duration, s.sampleInterval) ||
-          (s.commandGrid > 0.0 && ((!wholeSteps(s.commandGrid, dt) && !wholeSteps(dt, s.commandGrid)) ||
-                                   !wholeSteps(s.sampleInterval, s.commandGrid)))) {
-        std::cerr << "fem_cloth_report: scene " << s.name << ": dt = " << dt << " s must divide the "
-                  << "sample interval " << s.sampleInterval << " s and divide or be a multiple of its "
-                  << "command grid; the sample interval must divide the duration\n";
-        return 2;
-      }
-    }
-    // The reference and its check at twice its step.
-    totalWeight += 1.5 * s.duration / referenceSteps[s.name].first;
-    totalItems += 2;
-    std::set<std::string> seen;
-    for (const Variant& variant : variants) {
-      if (s.defaultSettingsOnly && !seen.insert(variant.integrator).second) continue;
-      for (double dt : s.dts) {
-        totalWeight += s.duration / dt;
-        ++totalItems;
-      }
-    }
-  }
-  Progress progress("work precision", totalWeight, !opt.quiet);
-  double doneWeight = 0.0;
-  int doneItems = 0;
-  std::vector<WorkPrecisionRow> rows;
-
-  for (const AccuracyScene& s : chosen) {
-    const std::shared_ptr<const Recording> commands = s.recording;
-    const double recordedDt = commands ? s.document["integrator"]["dt"].as<double>(0.01) : 0.0;
-    auto request = [&](const std::vector<std::string>& overrides) -> Expected<RunRequest> {
-      std::vector<std::string> all = opt.overrides;
-      all.insert(all.end(), overrides.begin(), overrides.end());
-      all.push_back(setting("duration", s.duration));
-      Expected<YAML::Node> doc = withOverrides(s.document, all);
-      if (!doc) return Error{doc.error()};
-      RunRequest r;
-      r.scene = *doc;
-      r.commands = commands;
-      r.recordedDt = recordedDt;
-      r.duration = s.duration;
-      r.sampleInterval = s.sampleInterval;
-      return r;
-    };
-    const double cfl = referenceSteps.at(s.name).second;
-    const double referenceDt = referenceSteps.at(s.name).first;
-    std::optional<Reference> reference;
-    std::vector<double> checkErrors;
-    for (const double refDt : {referenceDt, 2.0 * referenceDt}) {
-      progress.update(doneWeight, doneItems, totalItems, s.name + " reference dt " + num(refDt, 3));
-      Expected<RunRequest> req = request({"integrator.name=bdf2", setting("integrator.dt", refDt),
-                                          setting("integrator.newton_tolerance", s.referenceTolerance)});
-      if (!req) {
-        std::cerr << "fem_cloth_report: " << s.name << ": " << req.error() << '\n';
-        return 2;
-      }
-      Expected<Reference> ref = cachedReference(*req, s.commandsBag, cache);
-      if (!ref) {
-        std::cerr << "fem_cloth_report: " << s.name << ": " << ref.error() << '\n';
-        return 3;
-      }
-      doneWeight += s.duration / refDt;
-      ++doneItems;
-      if (!reference) {
-        reference = std::move(ref).value();
-      } else {
-        const PositionErrors check = positionErrors(ref->run.samples, reference->run.samples,
-                                                    reference->run.dim, reference->run.clothSize);
-        checkErrors = {check.rmsEnd, check.rmsOverTime, check.maxOverTime};
-        for (std::size_t k = 0; k < check.rms.size(); ++k) {
-          overTime << s.name << ",reference check," << num(2.0 * referenceDt, 17) << ','
-                   << num(reference->run.sampleTimes[k], 10) << ',' << num(check.rms[k]) << ','
-                   << num(check.max[k]) << '\n';
-        }
-      }
-    }
-    const RunResult& R = reference->run;
-    refs << s.name << ',' << csvText(s.description) << ',' << num(referenceDt, 17) << ','
-         << num(cfl) << ',' << num(2.0 / cfl) << ',' << s.referenceTolerance << ',' << s.duration << ',' << R.samples.size() << ','
-         << num(R.clothSize) << ',' << num(R.wall) << ',' << (reference->cached ? 1 : 0) << ','
-         << reference->key << ',' << num(2 * referenceDt, 17) << ',' << num(checkErrors[0]) << ','
-         << num(checkErrors[1]) << ',' << num(checkErrors[2]) << ',' << num(R.maxStretch) << ','
-         << num(R.balanceEnd) << '\n';
-    refs.flush();
-
-    std::set<std::string> seenIntegrators;
-    for (const Variant& variant : variants) {
-      // A scene that wants the default settings runs the first variant of each integrator.
-      if (s.defaultSettingsOnly && !seenIntegrators.insert(variant.integrator).second) continue;
-      for (double dt : s.dts) {
-        WorkPrecisionRow row;
-        row.scene = s.name;
-        row.label = variant.label;
-        row.integrator = variant.integrator;
-        row.dt = dt;
-        progress.update(doneWeight, doneItems, totalItems, s.name + " " + variant.label + " dt " + dtName(dt));
-        std::vector<std::string> overrides = variant.overrides;
-        overrides.push_back(setting("integrator.dt", dt));
-        Expected<RunRequest> req = request(overrides);
-        std::vector<double> walls;
-        if (!req) {
-          row.status = "n/a";
-          row.error = req.error();
-        } else {
-          double spent = 0.0;
-          do {
-            RunResult r = runScene(*req);
-            walls.push_back(r.wall);
-            spent += r.wall;
-            if (walls.size() == 1) row.run = std::move(r);
-          } while (row.run.outcome == RunResult::Outcome::Completed &&
-                   static_cast<int>(walls.size()) < opt.repeats && spent < opt.repeatBudget);
-          row.wall = median(walls);
-          row.repeats = static_cast<int>(walls.size());
-          row.error = row.run.error;
-          switch (row.run.outcome) {
-            case RunResult::Outcome::Completed: row.status = "ok"; break;
-            // The reference built, so the scene is sound: the integrator refuses it.
-            case RunResult::Outcome::BuildError: row.status = "n/a"; break;
-            default: row.status = outcomeName(row.run.outcome);
-          }
-          if (row.run.outcome == RunResult::Outcome::NonFinite) nonFinite = true;
-        }
-        row.errors = positionErrors(row.run.samples, R.samples, R.dim, R.clothSize);
-        const double scale = row.run.weightScale > 0.0 ? row.run.weightScale : R.weightScale;
-        wp << row.scene << ',' << csvText(row.label) << ',' << row.integrator << ',' << num(dt, 17)
-           << ',' << row.status << ',' << num(row.wall) << ',' << row.repeats << ','
-           << row.run.steps << ',' << row.run.substeps << ',' << row.run.newtonIterations << ','
-           << row.run.rollbacks << ',' << num(row.errors.rmsEnd) << ',' << num(row.errors.maxEnd)
-           << ',' << num(row.errors.rmsOverTime) << ',' << num(row.errors.maxOverTime) << ','
-           << num(row.run.balanceEnd / scale) << ',' << num(row.run.balanceMaxAbs / scale) << ','
-           << num(scale) << ',' << num(row.run.maxStretch) << ',' << num(R.maxStretch) << ','
-           << csvText(row.error) << '\n';
-        wp.flush();
-        for (std::size_t k = 0; k < row.errors.rms.size(); ++k) {
-          overTime << row.scene << ',' << csvText(row.label) << ',' << num(dt, 17) << ','
-                   << num(R.sampleTimes[k], 10) << ',' << num(row.errors.rms[k]) << ','
-                   << num(row.errors.max[k]) << '\n';
-        }
-        doneWeight += s.duration / dt;
-        ++doneItems;
-        rows.push_back(std::move(row));
-      }
-    }
-    progress.update(doneWeight, doneItems, totalItems, s.name + " done");
-  }
-
-  // Orders: slope of log error against log dt, over all completed runs of a setting, and over
-  // its three finest steps (closest to the asymptotic range).
-  summary << "== Convergence orders (slope of log error against log dt; RMS position error)\n";
-  summary << std::left << std::setw(14) << "scene" << std::setw(26) << "setting" << std::setw(10)
-          << "at end" << std::setw(12) << "over time" << std::setw(14) << "finest 3"
-          << "pairwise (coarse to fine)\n";
-  for (const AccuracyScene& s : chosen) {
-    for (const Variant& variant : variants) {
-      std::vector<double> dts, end, overall;
-      for (const WorkPrecisionRow& r : rows) {
-        if (r.scene != s.name || r.label != variant.label || r.status != "ok") continue;
-        dts.push_back(r.dt);
-        end.push_back(r.errors.rmsEnd);
-        overall.push_back(r.errors.rmsOverTime);
-      }
-      if (dts.empty()) continue;
-      const double pEnd = fittedOrder(dts, end), pTime = fittedOrder(dts, overall);
-      const std::size_t k = dts.size() >= 3 ? dts.size() - 3 : 0;
-      const double pFine = fittedOrder(std::vector<double>(dts.begin() + k, dts.end()),
-                                       std::vector<double>(end.begin() + k, end.end()));
-      std::string pairwise;
-      for (std::size_t i = 1; i < dts.size(); ++i) {
-        pairwise += (i > 1 ? " " : "") + num(std::log(end[i - 1] / end[i]) / std::log(dts[i - 1] / dts[i]), 3);
-      }
-      orders << s.name << ',' << csvText(variant.label) << ',' << variant.integrator << ','
-             << dts.size() << ',' << num(pEnd, 4) << ',' << num(pTime, 4) << ',' << num(pFine, 4)
-             << ',' << pairwise << '\n';
-      summary << std::left << std::setw(14) << s.name << std::setw(26) << variant.label
-              << std::setw(10) << num(pEnd, 3) << std::setw(12) << num(pTime, 3) << std::setw(14)
-              << num(pFine, 3) << pairwise << '\n';
-    }
-  }
-
-  // The ranking: for each error target, the cheapest run of each setting that reaches it.
-  summary << "\n== Cheapest run reaching an RMS error over time (relative to the cloth size)\n";
-  for (const AccuracyScene& s : chosen) {
-    for (double target : {1e-1, 1e-2, 1e-3}) {
-      std::vector<const WorkPrecisionRow*> best;
-      for (const Variant& variant : variants) {
-        const WorkPrecisionRow* cheapest = nullptr;
-        for (const WorkPrecisionRow& r : rows) {
-          if (r.scene != s.name || r.label != variant.label || r.status != "ok") continue;
-          if (!(r.errors.rmsOverTime <= target)) continue;
-          if (cheapest == nullptr || r.wall < cheapest->wall) cheapest = &r;
-        }
-        if (cheapest) best.push_back(cheapest);
-      }
-      std::sort(best.begin(), best.end(), [](auto* a, auto* b) { return a->wall < b->wall; });
-      summary << s.name << ", error <= " << num(target) << ": ";
-      if (best.empty()) summary << "no run";
-      for (std::size_t i = 0; i < best.size(); ++i) {
-        const WorkPrecisionRow& r = *best[i];
-        targets << s.name << ',' << num(target) << ',' << csvText(r.label) << ',' << r.integrator
-                << ',' << num(r.dt, 17) << ',' << num(r.wall) << ',' << num(r.errors.rmsOverTime) << '\n';
-        if (i < 4) summary << (i ? "; " : "") << r.label << " dt " << dtName(r.dt) << " " << num(r.wall, 3) << " s";
-      }
-      summary << '\n';
-    }
-  }
-  summary << '\n';
-  return 0;
+  WorkPrecisionStudy study(opt, std::move(chosen), workPrecisionVariants(integrators, opt.small));
+  return study.run(summary, nonFinite);
 }
 
 // ------------------------------------------------------------------------------------------------
@@ -707,10 +795,9 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
   return 0;
 }
 
-}  // namespace
-
-static int runReport(int argc, char** argv) {
-  Options opt;
+// The command line into `opt`, with the package's defaults for --config and --bag and the lists
+// split at commas; an exit status when the program ends here (--help, a bad command line).
+std::optional<int> parseCommandLine(int argc, char** argv, Options& opt) {
   CLI::App app{
       "The fem_cloth accuracy and stability report (docs/accuracy.md): work precision and\n"
       "convergence orders of every integrator on the standard scenes, and the stability matrix\n"
@@ -777,37 +864,33 @@ static int runReport(int argc, char** argv) {
       return 2;
     }
   }
-  // A runner's task (scripts/report, fem_cloth_batch report): cells only, no report files.
-  const bool cellTask = !opt.listCells.empty() || !opt.cellRange.empty();
-  if (cellTask) {
-    if (opt.study != "stability" || !opt.fromCellResults.empty() ||
-        (!opt.listCells.empty() && !opt.cellRange.empty()) || opt.cellRange.empty() != opt.cellResults.empty()) {
-      std::cerr << "fem_cloth_report: --list-cells FILE, or --cells FIRST:LAST with --cell-results FILE, "
-                   "go with --study stability alone\n";
-      return 2;
-    }
-    std::ostringstream unused;
-    bool nonFinite = false;
-    const int status = stability(opt, unused, nonFinite);
-    return status != 0 ? status : (nonFinite ? 4 : 0);
+  return std::nullopt;
+}
+
+// A runner's task (scripts/report, fem_cloth_batch report): cells only, no report files.
+int runCellTask(const Options& opt) {
+  if (opt.study != "stability" || !opt.fromCellResults.empty() ||
+      (!opt.listCells.empty() && !opt.cellRange.empty()) || opt.cellRange.empty() != opt.cellResults.empty()) {
+    std::cerr << "fem_cloth_report: --list-cells FILE, or --cells FIRST:LAST with --cell-results FILE, "
+                 "go with --study stability alone\n";
+    return 2;
   }
-  // The recorded grasp, read by the ROS side's bag reader (the report library knows no bags).
-  if (!opt.bag.empty()) {
-    Expected<std::shared_ptr<const Recording>> recording = readRecording(opt.bag);
-    if (recording) {
-      opt.recording = *recording;
-    } else {
-      opt.recordingError = recording.error();
-    }
-  }
+  std::ostringstream unused;
+  bool nonFinite = false;
+  const int status = stability(opt, unused, nonFinite);
+  return status != 0 ? status : (nonFinite ? 4 : 0);
+}
+
+// The output folder, and in it every scene of the report as a file, so that any run or cell can
+// be repeated by hand:
+//   fem_cloth_sim --scene <out>/scenes/pull_corner.yaml --set material.model=arap --dt 0.01
+int writeSceneFiles(const Options& opt) {
   std::error_code ec;
   std::filesystem::create_directories(opt.out, ec);
   if (ec) {
     std::cerr << "fem_cloth_report: cannot create '" << opt.out << "': " << ec.message() << '\n';
     return 2;
   }
-  // Every scene of the report as a file, so that any run or cell can be repeated by hand:
-  //   fem_cloth_sim --scene <out>/scenes/pull_corner.yaml --set material.model=arap --dt 0.01
   std::filesystem::create_directories(opt.out + "/scenes", ec);
   for (const std::string& c : extremeCaseNames()) {
     if (Expected<YAML::Node> doc = extremeCase(c, opt.grid)) {
@@ -823,6 +906,11 @@ static int runReport(int argc, char** argv) {
       }
     }
   }
+  return 0;
+}
+
+// The studies --study asks for, into summary.txt (also printed).
+int runStudies(const Options& opt) {
   const auto start = std::chrono::steady_clock::now();
   std::ostringstream summary;
   bool nonFinite = false;
@@ -842,6 +930,25 @@ static int runReport(int argc, char** argv) {
   }
   return 0;
 }
+
+int runReport(int argc, char** argv) {
+  Options opt;
+  if (const std::optional<int> status = parseCommandLine(argc, argv, opt)) return *status;
+  if (!opt.listCells.empty() || !opt.cellRange.empty()) return runCellTask(opt);
+  // The recorded grasp, read by the ROS side's bag reader (the report library knows no bags).
+  if (!opt.bag.empty()) {
+    Expected<std::shared_ptr<const Recording>> recording = readRecording(opt.bag);
+    if (recording) {
+      opt.recording = *recording;
+    } else {
+      opt.recordingError = recording.error();
+    }
+  }
+  if (int status = writeSceneFiles(opt); status != 0) return status;
+  return runStudies(opt);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   // The last line of defence: an unexpected exception is one line and status 3, not an abort.

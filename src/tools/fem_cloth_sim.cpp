@@ -70,6 +70,17 @@ struct Totals {
   double maxResidual = 0.0;
   double minAreaRatio = std::numeric_limits<double>::infinity();
   double maxStretch = -std::numeric_limits<double>::infinity();
+
+  /// Counts an accepted step.
+  void addStep(const StepReport& r) {
+    ++steps;
+    newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
+    localIterations += static_cast<std::uint64_t>(r.iterations);
+    backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
+    rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+    substeps += static_cast<std::uint64_t>(r.substeps);
+    maxResidual = std::max(maxResidual, r.residual);
+  }
 };
 
 class Progress {
@@ -162,13 +173,12 @@ struct Loaded {
 };
 
 Expected<Loaded> loadAndBuild(const std::string& path, const std::vector<std::string>& overrides) {
-  Expected<YAML::Node> doc = loadSceneDocument(path, overrides);
-  if (!doc) return Error{doc.error()};
-  Expected<Scene> scene = parseScene(*doc, path);
-  if (!scene) return Error{path + ": " + scene.error()};
+  YAML::Node document;
+  Expected<Scene> scene = loadScene(path, overrides, &document);
+  if (!scene) return Error{scene.error()};
   Expected<Simulation> built = buildSimulation(*scene);
   if (!built) return Error{path + ": " + built.error()};
-  return Loaded{std::move(doc).value(), std::move(scene).value(), std::move(built).value()};
+  return Loaded{document, std::move(scene).value(), std::move(built).value()};
 }
 
 // --check and --write-scene: the scene is validated exactly as a run would build it, without
@@ -374,6 +384,80 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
   std::cout << summary.str();
 }
 
+// Watches a run after every step: the smallest area ratio and the largest stretch so far, and on
+// request a frame of trajectory.csv and energy.csv (none with --no-output: outputs null).
+struct Observer {
+  Simulator& simulator;
+  const EdgeStretchMeter& stretchMeter;
+  Totals& totals;
+  CsvOutputs* outputs;
+
+  void operator()(bool write) const {
+    const EdgeStretch st = stretchMeter.measure(simulator.state().x);
+    const double minJ = minAreaRatio(simulator.model().mesh(), simulator.model().rest(), simulator.state().x);
+    totals.minAreaRatio = std::min(totals.minAreaRatio, minJ);
+    totals.maxStretch = std::max(totals.maxStretch, st.max);
+    if (write && outputs != nullptr) {
+      writeFrame(outputs->trajectory->stream(), simulator);
+      writeEnergy(outputs->energy->stream(), simulator, st, minJ);
+    }
+  }
+};
+
+// What stepping a scene to its end did: the error it stopped at (empty: none) and the wall time
+// of the steps (s).
+struct Stepped {
+  std::string failure;
+  double wall = 0.0;
+};
+
+// Steps the scene `totalSteps` times, or up to its first failure (a script command or a step that
+// failed), writing a frame every `every` steps and after the last.
+Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps, int every,
+                  const Observer& observe, Totals& totals, bool quiet) {
+  Simulator& simulator = *sim.simulator;
+  Stepped out;
+  Progress progress(scene.duration, !quiet);
+  const auto wallStart = std::chrono::steady_clock::now();
+  for (std::uint64_t k = 0; k < totalSteps; ++k) {
+    if (Status s = sim.script.applyDue(simulator); !s) {
+      out.failure = s.error();
+      break;
+    }
+    const StepReport r = simulator.step();
+    if (!r.ok) {
+      ++totals.failures;
+      totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+      out.failure = r.error;
+      break;
+    }
+    totals.addStep(r);
+    observe((k + 1) % static_cast<std::uint64_t>(every) == 0 || k + 1 == totalSteps);
+    progress.update(simulator.time(), totals.steps);
+  }
+  out.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
+  progress.finish();
+  return out;
+}
+
+// The summary of a scene run for --summary-json.
+Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals, std::uint64_t totalSteps,
+                  const Stepped& stepped, const EdgeStretch& st, const Json& files) {
+  return Json{{"status", stepped.failure.empty() ? "ok" : "failed"},
+              {"error", stepped.failure},
+              {"scene", scene.name},
+              {"integrator", simulator.integrator().name()},
+              {"steps", totals.steps},
+              {"total_steps", totalSteps},
+              {"simulated_s", simulator.time()},
+              {"wall_s", stepped.wall},
+              {"energy", energyJson(simulator.energies())},
+              {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
+              {"min_area_ratio", totals.minAreaRatio},
+              {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
+              {"outputs", files}};
+}
+
 // A scene run headless into CSV files (or none).
 int runScene(const Options& opt, const std::vector<std::string>& overrides) {
   Expected<Loaded> loaded = loadAndBuild(opt.scene, overrides);
@@ -381,69 +465,30 @@ int runScene(const Options& opt, const std::vector<std::string>& overrides) {
     std::cerr << "fem_cloth_sim: " << oneLine(loaded.error()) << '\n';
     return 2;
   }
-  const Scene* scene = &loaded->scene;
+  const Scene& scene = loaded->scene;
   Simulation& sim = loaded->simulation;
   for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << oneLine(w) << '\n';
   Simulator& simulator = *sim.simulator;
-  const double dt = scene->dt;
+  const double dt = scene.dt;
   const std::uint64_t totalSteps =
-      static_cast<std::uint64_t>(std::llround(std::ceil(scene->duration / dt - 1e-9)));
+      static_cast<std::uint64_t>(std::llround(std::ceil(scene.duration / dt - 1e-9)));
   const int every = opt.every > 0 ? opt.every : std::max(1, static_cast<int>(std::lround(1.0 / (60.0 * dt))));
 
   CsvOutputs outputs;
   if (!opt.noOutput) {
-    Expected<CsvOutputs> opened = openCsvOutputs(opt, *scene, simulator);
+    Expected<CsvOutputs> opened = openCsvOutputs(opt, scene, simulator);
     if (!opened) {
       std::cerr << "fem_cloth_sim: " << oneLine(opened.error()) << '\n';
       return 2;
     }
     outputs = std::move(opened).value();
   }
-
   const EdgeStretchMeter stretchMeter(*sim.mesh);
   Totals totals;
-  auto observe = [&](bool write) {
-    const EdgeStretch st = stretchMeter.measure(simulator.state().x);
-    const double minJ = minAreaRatio(simulator.model().mesh(), simulator.model().rest(), simulator.state().x);
-    totals.minAreaRatio = std::min(totals.minAreaRatio, minJ);
-    totals.maxStretch = std::max(totals.maxStretch, st.max);
-    if (write && !opt.noOutput) {
-      writeFrame(outputs.trajectory->stream(), simulator);
-      writeEnergy(outputs.energy->stream(), simulator, st, minJ);
-    }
-  };
+  const Observer observe{simulator, stretchMeter, totals, opt.noOutput ? nullptr : &outputs};
   observe(true);
-
-  std::string failure;
-  Progress progress(scene->duration, !opt.quiet);
-  const auto wallStart = std::chrono::steady_clock::now();
-  for (std::uint64_t k = 0; k < totalSteps; ++k) {
-    if (Status s = sim.script.applyDue(simulator); !s) {
-      failure = s.error();
-      break;
-    }
-    const StepReport r = simulator.step();
-    if (!r.ok) {
-      ++totals.failures;
-      totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
-      failure = r.error;
-      break;
-    }
-    ++totals.steps;
-    totals.newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
-    totals.localIterations += static_cast<std::uint64_t>(r.iterations);
-    totals.backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
-    totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
-    totals.substeps += static_cast<std::uint64_t>(r.substeps);
-    totals.maxResidual = std::max(totals.maxResidual, r.residual);
-    const bool write = (k + 1) % static_cast<std::uint64_t>(every) == 0 || k + 1 == totalSteps;
-    observe(write);
-    progress.update(simulator.time(), totals.steps);
-  }
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
-  progress.finish();
-  if (!opt.noOutput && !failure.empty()) observe(true);
+  const Stepped stepped = stepToEnd(sim, scene, totalSteps, every, observe, totals, opt.quiet);
+  if (!opt.noOutput && !stepped.failure.empty()) observe(true);
   // The outputs hold the run up to its last good state, also when it failed.
   if (!opt.noOutput) {
     for (OutputFile* file : {outputs.trajectory.get(), outputs.energy.get()}) {
@@ -454,28 +499,68 @@ int runScene(const Options& opt, const std::vector<std::string>& overrides) {
     }
   }
   const EdgeStretch st = stretchMeter.measure(simulator.state().x);
-  printSummary(opt, *scene, simulator, totals, totalSteps, wall, st, outputs.folder);
+  printSummary(opt, scene, simulator, totals, totalSteps, stepped.wall, st, outputs.folder);
   Json files = Json::array();
   if (!opt.noOutput) files = {outputs.folder + "/trajectory.csv", outputs.folder + "/energy.csv"};
-  const Json json{{"status", failure.empty() ? "ok" : "failed"},
-                  {"error", failure},
-                  {"scene", scene->name},
-                  {"integrator", simulator.integrator().name()},
-                  {"steps", totals.steps},
-                  {"total_steps", totalSteps},
-                  {"simulated_s", simulator.time()},
-                  {"wall_s", wall},
-                  {"energy", energyJson(simulator.energies())},
-                  {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
-                  {"min_area_ratio", totals.minAreaRatio},
-                  {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
-                  {"outputs", files}};
-  if (!writeSummaryJson(opt, json)) return 2;
-  if (!failure.empty()) {
-    std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: " << oneLine(failure) << '\n';
+  if (!writeSummaryJson(opt, sceneRunJson(scene, simulator, totals, totalSteps, stepped, st, files))) return 2;
+  if (!stepped.failure.empty()) {
+    std::cerr << "fem_cloth_sim: simulation failed at t = " << simulator.time() << " s: "
+              << oneLine(stepped.failure) << '\n';
     return 3;
   }
   return 0;
+}
+
+// The scene overrides: --set's, then --integrator's, --dt's and --duration's (a re-simulation
+// runs for the recording's duration unless --duration: runToBag takes it itself).
+std::vector<std::string> sceneOverrides(const Options& opt) {
+  std::vector<std::string> overrides = opt.overrides;
+  if (!opt.integrator.empty()) overrides.push_back("integrator.name=" + opt.integrator);
+  if (opt.dt != 0.0) {
+    std::ostringstream s;
+    s << std::setprecision(17) << "integrator.dt=" << opt.dt;
+    overrides.push_back(s.str());
+  }
+  if (opt.duration != 0.0 && opt.commands.empty()) {
+    std::ostringstream s;
+    s << std::setprecision(17) << "duration=" << opt.duration;
+    overrides.push_back(s.str());
+  }
+  return overrides;
+}
+
+// The parsed command line: its combinations checked, then a scene check, a bag run or a scene run.
+int runParsed(const Options& opt) {
+  const std::vector<std::string> overrides = sceneOverrides(opt);
+  if (opt.commands.empty() && opt.scene.empty()) {
+    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
+    return 2;
+  }
+  if ((opt.check || !opt.writeScene.empty()) && (opt.scene.empty() || !opt.commands.empty())) {
+    std::cerr << "fem_cloth_sim: --check and --write-scene need --scene (and no --commands)\n";
+    return 2;
+  }
+  // Before the run, not after it: a --summary-json naming the recording would be refused only
+  // once the replay is done.
+  for (const std::string* out : {&opt.writeScene, &opt.summaryJson}) {
+    if (Status s = out->empty() ? Status::success() : checkNotAnInput(*out, {opt.scene, opt.commands}); !s) {
+      std::cerr << "fem_cloth_sim: " << oneLine(s.error()) << '\n';
+      return 2;
+    }
+  }
+  if (!opt.writeScene.empty() || opt.check) {
+    if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
+  }
+  const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
+  if (!opt.commands.empty() || bagOut) {
+    // Without --out a re-simulation only compares and summarises (--verify): no bag written.
+    if (!bagOut && !opt.out.empty()) {
+      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag (or no --out)\n";
+      return 2;
+    }
+    return runBag(opt, overrides);
+  }
+  return runScene(opt, overrides);
 }
 
 int run(int argc, char** argv) {
@@ -523,47 +608,7 @@ int run(int argc, char** argv) {
     return 2;
   }
 
-  std::vector<std::string> overrides = opt.overrides;
-  if (!opt.integrator.empty()) overrides.push_back("integrator.name=" + opt.integrator);
-  if (opt.dt != 0.0) {
-    std::ostringstream s;
-    s << std::setprecision(17) << "integrator.dt=" << opt.dt;
-    overrides.push_back(s.str());
-  }
-  if (opt.duration != 0.0 && opt.commands.empty()) {
-    std::ostringstream s;
-    s << std::setprecision(17) << "duration=" << opt.duration;
-    overrides.push_back(s.str());
-  }
-  if (opt.commands.empty() && opt.scene.empty()) {
-    std::cerr << "fem_cloth_sim: --scene is required (or --commands BAG; see --help)\n";
-    return 2;
-  }
-  if ((opt.check || !opt.writeScene.empty()) && (opt.scene.empty() || !opt.commands.empty())) {
-    std::cerr << "fem_cloth_sim: --check and --write-scene need --scene (and no --commands)\n";
-    return 2;
-  }
-  // Before the run, not after it: a --summary-json naming the recording would be refused only
-  // once the replay is done.
-  for (const std::string* out : {&opt.writeScene, &opt.summaryJson}) {
-    if (Status s = out->empty() ? Status::success() : checkNotAnInput(*out, {opt.scene, opt.commands}); !s) {
-      std::cerr << "fem_cloth_sim: " << oneLine(s.error()) << '\n';
-      return 2;
-    }
-  }
-  if (!opt.writeScene.empty() || opt.check) {
-    if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
-  }
-  const bool bagOut = opt.out.size() > 4 && opt.out.compare(opt.out.size() - 4, 4, ".bag") == 0;
-  if (!opt.commands.empty() || bagOut) {
-    // Without --out a re-simulation only compares and summarises (--verify): no bag written.
-    if (!bagOut && !opt.out.empty()) {
-      std::cerr << "fem_cloth_sim: --commands writes a bag: give --out FILE.bag (or no --out)\n";
-      return 2;
-    }
-    return runBag(opt, overrides);
-  }
-  return runScene(opt, overrides);
+  return runParsed(opt);
 }
 
 }  // namespace

@@ -210,6 +210,9 @@ TEST(Rasterizer, NothingBeyondTheFarRange) {
   r.drawTriangle({at(0, 0, 5.0), at(63, 24, 15.0), at(0, 47, 5.0)}, uniform(kRed));
   EXPECT_FALSE(std::isnan(r.depthAt(2, 24)));
   for (float z : r.depth()) {
-    if (!std::isnan(z)) EXPECT_LE(z, 10.0f);
+    // Braces: EXPECT_LE expands to an if/else of its own (-Wdangling-else).
+    if (!std::isnan(z)) {
+      EXPECT_LE(z, 10.0f);
+    }
   }
 }

@@ -134,13 +134,28 @@ class Simulator {
 
  private:
   Status checkVertex(Index vertex) const;
+  /// 1/2 v^T M v (J).
+  double kineticEnergy(const VectorX& v) const;
   /// Kinetic + elastic - gravity . x at the current state (one energy evaluation).
   double mechanicalEnergy();
+  /// Kinetic + elastic energy of a state (J): the balance's reference at the initial state.
+  double storedEnergy(const State& s);
   void rebuildExternalForce();
   void snapshotInitial();
+  /// The energy account and the pin forces start again from zero (a new initial state, reset).
+  void restartAccount();
+  /// Forces whose duration ended before a step of dt from now no longer act.
+  void dropExpiredForces(double dt);
+  /// The substeps a step starts with: the adaptive count, halved after kRelaxAfter clean steps.
+  int startingSubsteps();
   StepInput stepInput(double dt);
+  /// One attempt of the integrator, checked: finite, then tests (a)-(c) (accept); fills `energy`.
+  StepReport attempt(const StepInput& input, double dt, int substeps, double energyStart,
+                     EnergyStep& energy);
   /// Tests (a)-(c) of an attempt that the integrator reported done; fills `energy`.
   Status accept(const StepReport& r, double energyStart, EnergyStep& energy);
+  /// A step whose attempts all failed: the report says why; pins and energy as before it.
+  StepReport failed(StepReport total, int substeps, const std::string& firstError, double energyStart);
   /// Books an accepted step (energy account, pins, time).
   void commit(const StepReport& r, const EnergyStep& energy, double dt);
 
@@ -171,16 +186,23 @@ class Simulator {
   VectorX externalForce_;
   VectorX pinForce_, previousPinForce_;
   StepReport lastReport_;
-  // Energy bookkeeping.
-  VectorX initialPositions_;
+  // Energy bookkeeping: the account since the initial state (J), reset and copied as a whole
+  // (snapshotInitial, reset, continueFrom), and the balance's reference, the kinetic + elastic
+  // energy of initial_.state.
+  struct EnergyBook {
+    double externalWork = 0.0, pinWork = 0.0, contactWork = 0.0, airWork = 0.0;
+    double liveWork = 0.0;    // put in by live changes (continueFrom)
+    double dissipated = 0.0;  // by the damping model
+    double numerical = 0.0;   // lost by the steps that lost energy (>= 0)
+    double created = 0.0;     // gained by the steps that gained energy (>= 0)
+    double heldMost = 0.0;    // the most kinetic + elastic energy an accepted step held
+    /// Books an accepted step.
+    void add(const EnergyStep& step);
+  } book_;
   double initialTotal_ = 0.0;
-  double externalWork_ = 0.0, pinWork_ = 0.0, contactWork_ = 0.0, airWork_ = 0.0, dissipated_ = 0.0;
-  double liveWork_ = 0.0;
-  double numerical_ = 0.0, created_ = 0.0;
-  double heldMost_ = 0.0;  // the most kinetic + elastic energy an accepted step held (J)
-  /// The run's energy scale of acceptance (b), with the work and held energy of a step added.
-  double runEnergyScale(double held, double externalWork, double pinWork, double contactWork,
-                        double airWork) const;
+  /// The run's energy scale of acceptance (b), with the work and held energy of `step` added
+  /// (EnergyStep{}: the account's own).
+  double runEnergyScale(const EnergyStep& step) const;
   double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.

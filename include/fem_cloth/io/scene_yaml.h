@@ -29,8 +29,10 @@ Status applySceneOverride(YAML::Node& document, const std::string& assignment);
 /// preset files. `material: {preset: NAME}` merges a fabric preset from config/materials/
 /// (docs/materials.md, "Presets") under the scene's own keys.
 Expected<Scene> parseScene(const YAML::Node& document, const std::string& sourcePath = "");
-/// loadSceneDocument + parseScene.
-Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides = {});
+/// loadSceneDocument + parseScene; `document`, when given, receives the document parsed (the
+/// overrides applied).
+Expected<Scene> loadScene(const std::string& path, const std::vector<std::string>& overrides = {},
+                          YAML::Node* document = nullptr);
 /// The document as YAML text (for storing with a run).
 std::string sceneDocumentToString(const YAML::Node& document);
 
