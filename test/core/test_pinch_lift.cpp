@@ -1,0 +1,207 @@
+// The pinch-lift scene (config/pinch_lift.yaml) through the core: two box fingers squeeze the
+// overhang of a cloth lying on a table, lift it 20 cm and carry it 10 cm along +x. Nothing is
+// pinned, so only friction can hold the cloth. Checked against what the scene's numbers imply,
+// computed here: the fingers' boxes at every step from the scene's trajectories (linear between
+// the points, held outside them), the pinched vertices from the boxes' geometry, the cloth's
+// weight from its density, thickness and size. Without friction the same pinch lets the cloth go.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <iostream>
+#include <stdexcept>
+
+#include "config_scene.h"
+#include "test_support.h"
+
+using namespace fem_cloth;
+using namespace fem_cloth::test;
+
+namespace {
+
+/// The scripted offset at time t (s): linear between the trajectory's points, held before the
+/// first and after the last (docs/scenes.md, `trajectory`).
+Eigen::Vector3d offsetAt(const std::vector<TrajectoryPoint>& trajectory, double t) {
+  if (trajectory.empty()) return Eigen::Vector3d::Zero();
+  if (t <= trajectory.front().time) return trajectory.front().offset;
+  for (std::size_t k = 1; k < trajectory.size(); ++k) {
+    const TrajectoryPoint& a = trajectory[k - 1];
+    const TrajectoryPoint& b = trajectory[k];
+    if (t <= b.time) return a.offset + (t - a.time) / (b.time - a.time) * (b.offset - a.offset);
+  }
+  return trajectory.back().offset;
+}
+
+/// An axis-aligned box at time t: centre and half extents (m).
+struct Box {
+  Eigen::Vector3d center, half;
+  /// > 0 outside, <= 0 inside or on it (the largest of the per-axis distances beyond the faces).
+  double outside(const Eigen::Vector3d& p) const { return ((p - center).cwiseAbs() - half).maxCoeff(); }
+  double top() const { return center.z() + half.z(); }
+  double bottom() const { return center.z() - half.z(); }
+  /// Inside the box's footprint in x and y.
+  bool over(const Eigen::Vector3d& p) const {
+    return ((p - center).head<2>().cwiseAbs() - half.head<2>()).maxCoeff() < 0.0;
+  }
+};
+
+Box boxAt(const SceneObstacle& o, double t) {
+  return {o.center + offsetAt(o.trajectory, t), 0.5 * o.size};
+}
+
+/// The index of the obstacle called `name` (its wrench is wrenches()[index]).
+std::size_t obstacleIndex(const Scene& scene, const std::string& name) {
+  for (std::size_t k = 0; k < scene.obstacles.size(); ++k) {
+    if (scene.obstacles[k].name == name) return k;
+  }
+  throw std::runtime_error("pinch_lift.yaml has no obstacle '" + name + "'");
+}
+
+Index stepsTo(const Scene& scene, double t) { return static_cast<Index>(std::lround(t / scene.dt)); }
+
+}  // namespace
+
+// The whole run: no vertex ever inside a finger; the vertices between the fingers when the lift
+// starts stay between them and move with them; afterwards the fingers alone carry the cloth's
+// weight, which Coulomb friction on the squeeze can hold.
+TEST(PinchLift, FingersLiftAndCarryTheClothByFriction) {
+  const Scene scene = configScene("pinch_lift.yaml");
+  const std::size_t lowerIndex = obstacleIndex(scene, "lower_finger");
+  const std::size_t upperIndex = obstacleIndex(scene, "upper_finger");
+  const std::size_t tableIndex = obstacleIndex(scene, "table");
+  const SceneObstacle& lower = scene.obstacles[lowerIndex];
+  const SceneObstacle& upper = scene.obstacles[upperIndex];
+  ASSERT_EQ(lower.type, "box");
+  ASSERT_EQ(upper.type, "box");
+  ASSERT_EQ(lower.orientation, Eigen::Vector3d::Zero());  // Box above is axis-aligned
+  ASSERT_EQ(upper.orientation, Eigen::Vector3d::Zero());
+  ASSERT_TRUE(scene.pins.empty()) << "the cloth must be held by friction alone";
+  ASSERT_GT(lower.trajectory.size(), 1u);
+
+  // The lift starts at the lower finger's first point and the fingers stop at its last.
+  const double liftStart = lower.trajectory.front().time, carryEnd = lower.trajectory.back().time;
+  const Eigen::Vector3d fingerMove = lower.trajectory.back().offset - lower.trajectory.front().offset;
+  const double weight = scene.density * scene.thickness * scene.grid.width * scene.grid.height * kG;
+  ASSERT_GT(scene.duration - carryEnd, 0.5) << "the scene should hang still for a while after the carry";
+
+  Simulation sim = mustBuild(scene);
+  Simulator& s = *sim.simulator;
+  const Index n = s.model().numVertices();
+  std::vector<Index> pinched;
+  std::vector<Eigen::Vector3d> atLiftStart;
+  const Index steps = stepsTo(scene, scene.duration), liftStep = stepsTo(scene, liftStart);
+  const Index holdFrom = stepsTo(scene, scene.duration - 0.5);
+  Eigen::Vector3d held = Eigen::Vector3d::Zero();  // N, by the fingers on the cloth
+  double squeeze = 0.0, tableLoad = 0.0;
+  int samples = 0, inside = 0, strayed = 0, rollbacks = 0;
+  const std::string error = run(sim, static_cast<int>(steps), [&](int k, const StepReport& r) {
+    rollbacks += r.rollbacks;
+    const double t = k * scene.dt;
+    const Box lo = boxAt(lower, t), up = boxAt(upper, t);
+    for (Index i = 0; i < n; ++i) {
+      const Eigen::Vector3d p = vertexPosition(s, i);
+      if (lo.outside(p) <= 0.0 || up.outside(p) <= 0.0) {
+        if (++inside == 1) ADD_FAILURE() << "vertex " << i << " inside a finger at t = " << t << " s";
+      }
+    }
+    if (k == liftStep) {
+      for (Index i = 0; i < n; ++i) {
+        const Eigen::Vector3d p = vertexPosition(s, i);
+        if (up.over(p) && p.z() > lo.top() && p.z() < up.bottom()) pinched.push_back(i);
+      }
+      for (Index i : pinched) atLiftStart.push_back(vertexPosition(s, i));
+    }
+    if (k > liftStep) {
+      for (Index i : pinched) {
+        const Eigen::Vector3d p = vertexPosition(s, i);
+        if (!(up.over(p) && p.z() > lo.top() && p.z() < up.bottom()) && ++strayed == 1) {
+          ADD_FAILURE() << "vertex " << i << " left the pinch at t = " << t << " s";
+        }
+      }
+    }
+    if (k > holdFrom) {
+      const auto& w = s.contact()->wrenches();
+      held -= w[lowerIndex].force + w[upperIndex].force;
+      squeeze += w[upperIndex].force.z();
+      tableLoad = std::max(tableLoad, w[tableIndex].force.norm());
+      ++samples;
+    }
+  });
+  ASSERT_EQ(error, "");
+  // integrator.substeps keeps the fingers' motion per substep below the cloth's distance to a
+  // pad, so that no step has to be retried (docs/contact.md, "Pinching").
+  EXPECT_EQ(rollbacks, 0);
+  ASSERT_GT(samples, 0);
+  held /= samples;
+  squeeze /= samples;
+
+  // The vertices between the pads when the lift starts: every row of the grid columns whose x
+  // lies inside the fingers' footprint.
+  const Box up0 = boxAt(upper, liftStart);
+  int columnsInside = 0;
+  for (int c = 0; c < scene.grid.cols; ++c) {
+    const double x = scene.grid.origin[0] + c * scene.grid.width / (scene.grid.cols - 1);
+    if (std::abs(x - up0.center.x()) < up0.half.x()) ++columnsInside;
+  }
+  ASSERT_GT(columnsInside, 0);
+  EXPECT_EQ(static_cast<int>(pinched.size()), columnsInside * scene.grid.rows);
+
+  // Moved with the fingers. Across the pads a vertex stays within the gap (checked at every step
+  // above); along them a sticking contact of IPC's smoothed friction slides slower than
+  // contact.friction_velocity eps_v, so it creeps at most eps_v x the time it was held.
+  const double creepBound = scene.contact.frictionVelocity * (scene.duration - liftStart);
+  const double gap = up0.bottom() - boxAt(lower, liftStart).top();
+  double worstSlip = 0.0, worstAcross = 0.0;
+  for (std::size_t j = 0; j < pinched.size(); ++j) {
+    const Eigen::Vector3d slip = vertexPosition(s, pinched[j]) - atLiftStart[j] - fingerMove;
+    worstSlip = std::max(worstSlip, slip.head<2>().norm());
+    worstAcross = std::max(worstAcross, std::abs(slip.z()));
+  }
+  EXPECT_LT(worstSlip, creepBound);
+  EXPECT_LT(worstAcross, gap);
+
+  // Hanging still, the fingers carry the whole weight (the table none); mass damping's drag on
+  // the last swings and the swings themselves are a small part of it.
+  EXPECT_LT(tableLoad, 1e-9);
+  EXPECT_NEAR(held.z(), weight, 0.03 * weight);
+  EXPECT_LT(held.head<2>().norm(), 0.03 * weight);
+  // Coulomb: the weight the pinch holds needs at most that much friction, and both pads press
+  // with at least the upper pad's squeeze N, so friction up to 2 mu N is available. (Sufficient,
+  // not necessary: the lower finger's edge, round which the cloth bends, carries some weight.)
+  const double mu = std::min(lower.friction, upper.friction);
+  EXPECT_LE(weight, 2.0 * mu * squeeze);
+
+  const EnergyReport e = s.energies();
+  const double lifted = weight * fingerMove.z();
+  // Backward Euler only loses energy; what a step may gain is round-off of the energies.
+  EXPECT_LT(e.created, 1e-6 * lifted);
+  EXPECT_LT(std::abs(e.balanceError), 0.05 * lifted);
+  std::cout << pinched.size() << " vertices pinched; after the lift and carry " << fingerMove.transpose()
+            << " m they slipped " << worstSlip * 1e3 << " mm along the pads (creep bound "
+            << creepBound * 1e3 << " mm) and " << worstAcross * 1e3 << " mm across (gap " << gap * 1e3
+            << " mm); fingers hold " << held.z() << " N of the cloth's weight " << weight
+            << " N; squeeze " << squeeze << " N, 2 mu N = " << 2.0 * mu * squeeze << " N; balance error "
+            << e.balanceError << " J (lift work " << lifted << " J)\n";
+}
+
+// The same pinch without friction: the squeeze alone cannot hold the cloth, which slides out
+// from between the fingers as they rise.
+TEST(PinchLift, WithoutFrictionTheClothSlipsOut) {
+  Scene scene = configScene("pinch_lift.yaml");
+  for (SceneObstacle& o : scene.obstacles) {
+    if (o.name != "table") o.friction = 0.0;
+  }
+  const SceneObstacle& lower = scene.obstacles[obstacleIndex(scene, "lower_finger")];
+  const double liftStart = lower.trajectory.front().time;
+  const double liftEnd = liftStart + 0.6;  // well into the lift: the fingers have risen 14 cm
+  const double risen = (offsetAt(lower.trajectory, liftEnd) - offsetAt(lower.trajectory, liftStart)).z();
+  Simulation sim = mustBuild(scene);
+  Simulator& s = *sim.simulator;
+  double highest = 0.0;
+  const std::string error = run(sim, static_cast<int>(stepsTo(scene, liftEnd)));
+  ASSERT_EQ(error, "");
+  for (Index i = 0; i < s.model().numVertices(); ++i) highest = std::max(highest, vertexPosition(s, i).z());
+  const double tableTop = scene.grid.origin[2];
+  std::cout << "without friction the highest vertex is " << (highest - tableTop) * 1e3
+            << " mm above where the cloth lay; the fingers rose " << risen * 1e3 << " mm\n";
+  EXPECT_LT(highest - tableTop, 0.5 * risen);
+}
