@@ -29,10 +29,11 @@ void filterPinned(Matrix& A, const std::vector<char>& pinned, const VectorX& mas
   }
 }
 
-// y = K x for the values of the model's pattern given separately.
+// y = K x for the values of the model's pattern given separately (y is sized here: callers pass
+// scratch vectors).
 void patternProduct(const Matrix& pattern, const std::vector<double>& values, const VectorX& x,
                     VectorX& y) {
-  y.setZero();
+  y.setZero(pattern.rows());
   const int* outer = pattern.outerIndexPtr();
   const int* inner = pattern.innerIndexPtr();
   for (Eigen::Index j = 0; j < pattern.outerSize(); ++j) {
