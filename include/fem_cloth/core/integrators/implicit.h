@@ -13,12 +13,12 @@
 // beta K0 the Rayleigh damping with K0 the projected stiffness at the start of the step.
 //
 // Setting dPhi/dx = 0 gives exactly the implicit update M (x - xhat) = c^2 (f - dE/dx - D v+).
-// Phi is minimised by Newton's method with per-element PSD-projected Hessians (so every Newton
-// direction descends) and a backtracking (Armijo) line search on Phi, which therefore never
-// increases; states outside a material's domain (Neo-Hookean J <= 0) have Phi = +inf and are
-// rejected by the line search. Pinned DOFs are filtered: their rows and columns are replaced by
-// the identity (scaled by their mass) with zero right-hand side, which keeps the matrix pattern,
-// and so the symbolic factorisation, fixed while pins come and go.
+// This class is thin: each substep it builds Phi as an IncrementalPotential of terms
+// (potential/incremental_potential.h, potential/terms.h), has NewtonSolver (solvers/newton.h:
+// projected Newton, pins eliminated, CCD-bounded Armijo line search, so Phi never increases and
+// states outside a material's domain, Phi = +inf, are rejected) minimise it from a starting
+// point of its own, and books the result: velocities, pin forces, damping and air work, and the
+// State's history, which also carries the BDF2 restart after an impact (see step()).
 //
 // Air (air.h; only when the scene has `air`): Phi gains c^2 / gamma D(gamma (x - xc)), the air's
 // dissipation potential at the step's velocity with normals and areas lagged at the start of the
