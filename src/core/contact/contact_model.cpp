@@ -392,146 +392,177 @@ double ContactModel::evaluate(const VectorX& x, VectorX* gradient, SparseHessian
   return evaluateAll(x, gradient, hessian, outside, scale, nullptr, nullptr);
 }
 
+void ContactModel::Assembly::note(double distance, double dHat) {
+  if (stats == nullptr) return;
+  stats->minDistance = std::min(stats->minDistance, distance);
+  if (distance < dHat) ++stats->contacts;
+}
+
+void ContactModel::scatter(const std::array<Index, 4>& v, const Vector12& g, const Matrix12* H,
+                           Assembly& a) const {
+  // H: already positive semi-definite.
+  if (a.gradient != nullptr) {
+    for (int k = 0; k < 4; ++k) a.gradient->segment<3>(3 * v[k]) += a.scale * g.segment<3>(3 * k);
+  }
+  if (H != nullptr) {
+    for (int k = 0; k < 4; ++k) {
+      for (int l = 0; l < 4; ++l) {
+        addBlock(v[k], v[l], a.scale * H->block<3, 3>(3 * k, 3 * l), a.hessian, a.outside);
+      }
+    }
+  }
+}
+
 double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
                                  std::vector<Eigen::Triplet<double>>* outside, double scale,
                                  std::vector<ObstacleWrench>* wrench, ContactStats* stats) {
-  const double dHat = settings_.distance;
-  const bool wantHessian = hessian != nullptr;
-  const bool wantGradient = gradient != nullptr || wantHessian || wrench != nullptr;
-  double energy = 0.0;
-  auto note = [&](double d) {
-    if (stats == nullptr) return;
-    stats->minDistance = std::min(stats->minDistance, d);
-    if (d < dHat) ++stats->contacts;
-  };
+  Assembly a;
+  a.gradient = gradient;
+  a.hessian = hessian;
+  a.outside = outside;
+  a.scale = scale;
+  a.wrench = wrench;
+  a.stats = stats;
+  // One running sum over barriers, then friction, in this order.
+  if (!addObstacleBarriers(x, a)) return kInf;
+  if (settings_.selfCollision && !(addPointTriangleBarriers(x, a) && addEdgeEdgeBarriers(x, a))) {
+    return kInf;
+  }
+  addFriction(x, a);
+  return a.energy;
+}
+
+bool ContactModel::addObstacleBarriers(const VectorX& x, Assembly& a) {
   // Vertex-obstacle barriers: kappa m b(d^2), d the signed distance at the end of the substep.
+  const double dHat = settings_.distance;
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
     for (std::size_t k = 0; k < obstacles_.size(); ++k) {
       const SignedDistance sd = obstacleDistance(k, vertex(x, i), true);
-      note(sd.distance);
-      if (!(sd.distance > 0.0)) return kInf;
+      a.note(sd.distance, dHat);
+      if (!(sd.distance > 0.0)) return false;
       if (sd.distance >= dHat) continue;
       const double d = sd.distance, s = d * d, w = kappa_ * mass_[i];
-      energy += w * barrier::value(s, sHat_);
+      a.energy += w * barrier::value(s, sHat_);
       const double b1 = barrier::first(s, sHat_);
       const Eigen::Vector3d g = w * b1 * 2.0 * d * sd.normal;  // dE/dx_i
-      if (gradient != nullptr) gradient->segment<3>(3 * i) += scale * g;
-      if (wrench != nullptr) {
-        (*wrench)[k].force += g;  // the cloth pushes the obstacle with +dE/dx
-        (*wrench)[k].torque += sd.closest.cross(g);
+      if (a.gradient != nullptr) a.gradient->segment<3>(3 * i) += a.scale * g;
+      if (a.wrench != nullptr) {
+        (*a.wrench)[k].force += g;  // the cloth pushes the obstacle with +dE/dx
+        (*a.wrench)[k].torque += sd.closest.cross(g);
       }
-      if (wantHessian) {
+      if (a.hessian != nullptr) {
         // With s = d^2: d2s = 2 n n^T + 2 d Hd, and the Hessian is
         //   w ((4 b'' s + 2 b') n n^T + 2 b' d Hd).
         // An exact distance has |grad d| = 1, so Hd n = 0, and outside a convex shape Hd is
         // positive semi-definite: its part (times b' < 0) is negative across the normal, and the
         // PSD projection keeps the normal part alone (the same as barrierGaussNewtonHessian).
         const double along = std::max(4.0 * barrier::second(s, sHat_) * s + 2.0 * b1, 0.0);
-        addBlock(i, i, (scale * w * along) * (sd.normal * sd.normal.transpose()), hessian, outside);
+        addBlock(i, i, (a.scale * w * along) * (sd.normal * sd.normal.transpose()), a.hessian,
+                 a.outside);
       }
     }
   }
-  // Self-contact barriers over the candidate pairs.
-  if (settings_.selfCollision) {
-    Vector12 gs, gc;
-    Matrix12 Hs, Hc;
-    // H: already positive semi-definite.
-    auto scatter = [&](const std::array<Index, 4>& v, const Vector12& g, const Matrix12* H) {
-      if (gradient != nullptr) {
-        for (int a = 0; a < 4; ++a) gradient->segment<3>(3 * v[a]) += scale * g.segment<3>(3 * a);
-      }
-      if (H != nullptr) {
-        for (int a = 0; a < 4; ++a) {
-          for (int b = 0; b < 4; ++b) {
-            addBlock(v[a], v[b], scale * H->block<3, 3>(3 * a, 3 * b), hessian, outside);
-          }
-        }
-      }
-    };
-    for (const auto& [p, t] : pointTriangle_) {
-      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
-      ++checks_;
-      const PrimitiveDistance pd =
-          pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
-                                wantGradient ? &gs : nullptr);
-      note(std::sqrt(pd.squared));
-      if (!(pd.squared > 0.0)) return kInf;
-      if (pd.squared >= sHat_) continue;
-      const double w = kappa_ * mass_[p];
-      energy += w * barrier::value(pd.squared, sHat_);
-      if (!wantGradient) continue;
-      const double b1 = barrier::first(pd.squared, sHat_);
-      Matrix12 H;
-      if (wantHessian) H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
-      scatter({p, tri[0], tri[1], tri[2]}, w * b1 * gs, wantHessian ? &H : nullptr);
-    }
-    for (const auto& [a, b] : edgeEdge_) {
-      const auto& ea = edges_[static_cast<std::size_t>(a)];
-      const auto& eb = edges_[static_cast<std::size_t>(b)];
-      ++checks_;
-      const PrimitiveDistance pd =
-          edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
-                           wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
-      note(std::sqrt(pd.squared));
-      if (!(pd.squared > 0.0)) return kInf;
-      if (pd.squared >= sHat_) continue;
-      // Mollified: e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
-      const double epsX = edgeMollifierThreshold(a, b);
-      const double c = edgeCrossSquared(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
-                                        wantGradient ? &gc : nullptr, wantHessian ? &Hc : nullptr);
-      const double w = kappa_ * 0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]);
-      const double e = mollifier::value(c, epsX), bv = barrier::value(pd.squared, sHat_);
-      energy += w * e * bv;
-      if (!wantGradient) continue;
-      const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
-      const Vector12 gb = b1 * gs, ge = e1 * gc;
-      Matrix12 H;
-      if (wantHessian && e == 1.0) {
-        H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
-      } else if (wantHessian) {
-        // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
-        H = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
-                            gb * ge.transpose() + ge * gb.transpose() +
-                            bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
-      }
-      scatter({ea[0], ea[1], eb[0], eb[1]}, w * (e * gb + bv * ge), wantHessian ? &H : nullptr);
-    }
+  return true;
+}
+
+bool ContactModel::addPointTriangleBarriers(const VectorX& x, Assembly& a) {
+  const bool wantHessian = a.hessian != nullptr;
+  const bool wantGradient = a.wantsGradient();
+  Vector12 gs;
+  for (const auto& [p, t] : pointTriangle_) {
+    const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+    ++checks_;
+    const PrimitiveDistance pd =
+        pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
+                              wantGradient ? &gs : nullptr);
+    a.note(std::sqrt(pd.squared), settings_.distance);
+    if (!(pd.squared > 0.0)) return false;
+    if (pd.squared >= sHat_) continue;
+    const double w = kappa_ * mass_[p];
+    a.energy += w * barrier::value(pd.squared, sHat_);
+    if (!wantGradient) continue;
+    const double b1 = barrier::first(pd.squared, sHat_);
+    Matrix12 H;
+    if (wantHessian) H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
+    scatter({p, tri[0], tri[1], tri[2]}, w * b1 * gs, wantHessian ? &H : nullptr, a);
   }
+  return true;
+}
+
+bool ContactModel::addEdgeEdgeBarriers(const VectorX& x, Assembly& a) {
+  const bool wantHessian = a.hessian != nullptr;
+  const bool wantGradient = a.wantsGradient();
+  Vector12 gs, gc;
+  Matrix12 Hs, Hc;
+  for (const auto& [ia, ib] : edgeEdge_) {
+    const auto& ea = edges_[static_cast<std::size_t>(ia)];
+    const auto& eb = edges_[static_cast<std::size_t>(ib)];
+    ++checks_;
+    const PrimitiveDistance pd =
+        edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
+                         wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
+    a.note(std::sqrt(pd.squared), settings_.distance);
+    if (!(pd.squared > 0.0)) return false;
+    if (pd.squared >= sHat_) continue;
+    // Mollified: e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
+    const double epsX = edgeMollifierThreshold(ia, ib);
+    const double c = edgeCrossSquared(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
+                                      wantGradient ? &gc : nullptr, wantHessian ? &Hc : nullptr);
+    const double w = kappa_ * 0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]);
+    const double e = mollifier::value(c, epsX), bv = barrier::value(pd.squared, sHat_);
+    a.energy += w * e * bv;
+    if (!wantGradient) continue;
+    const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
+    const Vector12 gb = b1 * gs, ge = e1 * gc;
+    Matrix12 H;
+    if (wantHessian && e == 1.0) {
+      H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
+    } else if (wantHessian) {
+      // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
+      H = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
+                          gb * ge.transpose() + ge * gb.transpose() +
+                          bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
+    }
+    scatter({ea[0], ea[1], eb[0], eb[1]}, w * (e * gb + bv * ge), wantHessian ? &H : nullptr, a);
+  }
+  return true;
+}
+
+void ContactModel::addFriction(const VectorX& x, Assembly& a) const {
   // Lagged friction: mu lambda f0(|u|), u = T^T (sum_k w_k (x_k - xc_k) - offset).
   for (const Friction& f : friction_) {
     Eigen::Vector3d r = -f.offset;
-    for (int a = 0; a < f.count; ++a) {
-      const Index v = f.vertices[static_cast<std::size_t>(a)];
-      r += f.weights[a] * (vertex(x, v) - vertex(frictionOrigin_, v));
+    for (int k = 0; k < f.count; ++k) {
+      const Index v = f.vertices[static_cast<std::size_t>(k)];
+      r += f.weights[k] * (vertex(x, v) - vertex(frictionOrigin_, v));
     }
     const Eigen::Vector2d u = f.tangent.transpose() * r;
     const double y = u.norm();
-    energy += f.muLambda * friction::f0(y, frictionEps_);
+    a.energy += f.muLambda * friction::f0(y, frictionEps_);
     const Eigen::Vector3d g = f.muLambda * friction::f1OverY(y, frictionEps_) * (f.tangent * u);
-    if (gradient != nullptr) {
-      for (int a = 0; a < f.count; ++a) {
-        gradient->segment<3>(3 * f.vertices[static_cast<std::size_t>(a)]) += scale * f.weights[a] * g;
+    if (a.gradient != nullptr) {
+      for (int k = 0; k < f.count; ++k) {
+        a.gradient->segment<3>(3 * f.vertices[static_cast<std::size_t>(k)]) += a.scale * f.weights[k] * g;
       }
     }
-    if (wrench != nullptr && f.obstacle >= 0) {
-      (*wrench)[static_cast<std::size_t>(f.obstacle)].force += g;
-      (*wrench)[static_cast<std::size_t>(f.obstacle)].torque += f.point.cross(g);
+    if (a.wrench != nullptr && f.obstacle >= 0) {
+      (*a.wrench)[static_cast<std::size_t>(f.obstacle)].force += g;
+      (*a.wrench)[static_cast<std::size_t>(f.obstacle)].torque += f.point.cross(g);
     }
-    if (wantHessian) {
+    if (a.hessian != nullptr) {
       // Positive semi-definite as it is (Li et al. 2020, section 5.2).
       const Eigen::Matrix2d H2 = f.muLambda * (friction::f1OverY(y, frictionEps_) * Eigen::Matrix2d::Identity() +
                                                friction::hessianRadialCoefficient(y, frictionEps_) * u * u.transpose());
       const Eigen::Matrix3d H3 = f.tangent * H2 * f.tangent.transpose();
-      for (int a = 0; a < f.count; ++a) {
-        for (int b = 0; b < f.count; ++b) {
-          addBlock(f.vertices[static_cast<std::size_t>(a)], f.vertices[static_cast<std::size_t>(b)],
-                   scale * f.weights[a] * f.weights[b] * H3, hessian, outside);
+      for (int k = 0; k < f.count; ++k) {
+        for (int l = 0; l < f.count; ++l) {
+          addBlock(f.vertices[static_cast<std::size_t>(k)], f.vertices[static_cast<std::size_t>(l)],
+                   a.scale * f.weights[k] * f.weights[l] * H3, a.hessian, a.outside);
         }
       }
     }
   }
-  return energy;
 }
 
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {

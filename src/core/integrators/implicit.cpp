@@ -10,120 +10,20 @@
 
 namespace fem_cloth {
 
-namespace {
-
-using Matrix = LinearSolver::Matrix;
-
-// Replaces the rows and columns of pinned DOFs by the identity scaled by the DOF's mass, so
-// that the pattern is unchanged and the solve leaves pinned DOFs where they are.
-void filterPinned(Matrix& A, const std::vector<char>& pinned, const VectorX& mass) {
-  double* values = A.valuePtr();
-  const int* outer = A.outerIndexPtr();
-  const int* inner = A.innerIndexPtr();
-  for (Eigen::Index j = 0; j < A.outerSize(); ++j) {
-    const bool pinnedColumn = pinned[j] != 0;
-    for (int k = outer[j]; k < outer[j + 1]; ++k) {
-      const int i = inner[k];
-      if (pinnedColumn || pinned[i]) values[k] = (i == j) ? mass[i] : 0.0;
-    }
-  }
-}
-
-// y = K x for the values of the model's pattern given separately.
-void patternProduct(const Matrix& pattern, const std::vector<double>& values, const VectorX& x,
-                    VectorX& y) {
-  y.setZero();
-  const int* outer = pattern.outerIndexPtr();
-  const int* inner = pattern.innerIndexPtr();
-  for (Eigen::Index j = 0; j < pattern.outerSize(); ++j) {
-    const double xj = x[j];
-    for (int k = outer[j]; k < outer[j + 1]; ++k) y[inner[k]] += values[k] * xj;
-  }
-}
-
-}  // namespace
-
 ImplicitIntegrator::ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings)
-    : scheme_(scheme), settings_(settings) {}
+    : scheme_(scheme), newton_(settings) {}
 
 std::string ImplicitIntegrator::name() const {
   return scheme_ == ImplicitScheme::BackwardEuler ? "backward_euler" : "bdf2";
 }
 
-double ImplicitIntegrator::potential(const VectorX& x, double elastic) {
-  if (!std::isfinite(elastic)) return kInfiniteEnergy;
-  const VectorX& m = *mass_;
-  double inertia = 0.0, damping = 0.0;
-  for (Eigen::Index i = 0; i < x.size(); ++i) {
-    const double d = x[i] - xhat_[i];
-    inertia += m[i] * d * d;
-  }
-  if (alpha_ > 0.0) {
-    for (Eigen::Index i = 0; i < x.size(); ++i) {
-      const double d = x[i] - xc_[i];
-      damping += alpha_ * m[i] * d * d;
-    }
-  }
-  double phi = 0.5 * inertia + c2_ * (elastic - forceTotal_.dot(x)) + 0.5 * c2_ * gamma_ * damping;
-  // Lagged stiffness damping beta K0, a quadratic in x - xc.
-  if (beta_ > 0.0) {
-    patternProduct(model_->hessianPattern().matrix(), laggedStiffness_, x - xc_, scratch_);
-    phi += 0.5 * c2_ * gamma_ * (x - xc_).dot(scratch_);
-  }
-  // The air's dissipation potential D at v = gamma (x - xc), as c^2 / gamma D (backward Euler:
-  // h^2 (h D)), whose x-gradient is -c^2 times the air force (air.h).
-  if (air_ != nullptr) {
-    airVelocity_ = gamma_ * (x - xc_);
-    phi += c2_ / gamma_ * air_->dissipation(airVelocity_);
-  }
-  return phi;
-}
-
-void ImplicitIntegrator::potentialGradient(const VectorX& x, const VectorX& elasticGradient,
-                                           VectorX& out) {
-  const VectorX& m = *mass_;
-  out = m.cwiseProduct(x - xhat_) + c2_ * (elasticGradient - forceTotal_);
-  if (alpha_ > 0.0) out += (c2_ * gamma_ * alpha_) * m.cwiseProduct(x - xc_);
-  if (beta_ > 0.0) {
-    patternProduct(model_->hessianPattern().matrix(), laggedStiffness_, x - xc_, scratch_);
-    out += c2_ * gamma_ * scratch_;
-  }
-  if (air_ != nullptr) {
-    airVelocity_ = gamma_ * (x - xc_);
-    air_->force(airVelocity_, airForce_);
-    out -= c2_ * airForce_;
-  }
-}
-
-EvalResult ImplicitIntegrator::evaluate(const VectorX& x, VectorX& gradient) {
-  gradient.setZero(x.size());
-  EvalRequest request;
-  request.gradient = &gradient;
-  EvalResult result = model_->evaluate(x, request);
-  // The contact potential: a zero contact distance, like an element outside its domain, makes
-  // the energy +inf.
-  if (contact_ != nullptr && result.inDomain) {
-    const double e = contact_->evaluate(x, &gradient, nullptr, nullptr, 1.0);
-    result.energy += e;
-    if (!std::isfinite(e)) result.inDomain = false;
-  }
-  return result;
-}
-
-double ImplicitIntegrator::relativeGradient(const VectorX& g) const {
-  double worst = 0.0;
-  for (Index i = 0; i < g.size(); ++i) {
-    if (!(*pinned_)[i]) worst = std::max(worst, std::abs(g[i]) / ((*mass_)[i] * kStandardGravity));
-  }
-  return worst / c2_;
-}
-
-ForceResidual ImplicitIntegrator::residual(const StepInput& input, const State& state, double h) {
+ForceResidual ImplicitIntegrator::residual(const StepInput& input, const State& state, double h,
+                                           const NewtonIterate& it) {
   // The equations of motion hold where dPhi/dx = 0; dPhi/dx / c^2 is the unbalanced force (N).
-  unbalancedForce_ = g_ / c2_;
-  velocity_ = gamma_ * (x_ - xc_);
-  return measureResidual(unbalancedForce_, *mass_, *input.externalForce, *pinned_, state.v, velocity_, h,
-                         input.residualScale.acceleration);
+  unbalancedForce_ = it.gradient / potential_.c2();
+  velocity_ = potential_.gamma() * (it.x - potential_.xc());
+  return measureResidual(unbalancedForce_, potential_.mass(), *input.externalForce, *pinned_,
+                         state.v, velocity_, h, input.residualScale.acceleration);
 }
 
 std::string ImplicitIntegrator::residualText(const ForceResidual& r) const {
@@ -142,8 +42,6 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
   report.substeps = substeps;
   const double h = dt / substeps;
   const std::uint64_t checksBefore = input.contact ? input.contact->checks() : 0;
-  // A failed step is rolled back by the caller: so is the impact bookkeeping.
-  const int contactsAtStart = contactsBefore_, restartsAtStart = restartSubsteps_;
   for (int s = 0; s < substeps; ++s) {
     const double from = static_cast<double>(s) / substeps, to = static_cast<double>(s + 1) / substeps;
     // BDF2 assumes a smooth history. At an impact (more contacts than after the last substep) its
@@ -151,42 +49,32 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
     // leave it at about its impact speed, and a layer falling onto one already resting gains
     // energy (after a velocity jump in its history, BDF2 adds 7/9 of the kinetic energy the jump
     // left, however small the step). So an impact substep is redone as backward Euler, and so
-    // are the two after it, whose histories (x_, v_) still hold the impact.
-    if (state.xPrevious.size() != state.x.size()) contactsBefore_ = restartSubsteps_ = 0;  // new run
-    if (restartSubsteps_ > 0) {
-      state.historyDt = 0.0;  // backward Euler
-      --restartSubsteps_;
-    }
+    // are the two after it, whose histories (x_, v_) still hold the impact (State::impact).
+    state.beginSubstep();
     const bool watchImpact = scheme_ == ImplicitScheme::Bdf2 && input.contact != nullptr;
     const bool bdf2Substep =
         watchImpact && state.hasHistory() && std::abs(state.historyDt - h) <= 1e-12 * h;
-    double dissipatedBefore = 0.0, contactWorkBefore = 0.0, pinWorkBefore = 0.0, airWorkBefore = 0.0;
-    if (bdf2Substep) {
-      beforeImpact_ = state;
-      dissipatedBefore = report.dissipated;
-      contactWorkBefore = report.contactWork;
-      pinWorkBefore = report.pinWork;
-      airWorkBefore = report.airWork;
-    }
+    const StepReport before = report;
     bool ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
-    if (ok && watchImpact && report.contacts > contactsBefore_) {
+    if (ok && watchImpact && report.contacts > state.contacts) {
       if (bdf2Substep) {
-        state = beforeImpact_;
+        // Again from the start of the substep, which the history holds (backward Euler reads
+        // x and v alone, and the commit puts x back into xPrevious).
+        state.x.swap(state.xPrevious);
+        state.v.swap(state.vPrevious);
         state.historyDt = 0.0;
-        report.dissipated = dissipatedBefore;
-        report.contactWork = contactWorkBefore;
-        report.pinWork = pinWorkBefore;
-        report.airWork = airWorkBefore;
+        report.dissipated = before.dissipated;
+        report.contactWork = before.contactWork;
+        report.pinWork = before.pinWork;
+        report.airWork = before.airWork;
         ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
       }
-      if (ok) restartSubsteps_ = 2;
+      if (ok) state.impact(2);
     }
-    if (ok) contactsBefore_ = report.contacts;
+    if (ok) state.contacts = report.contacts;
     if (input.contact) report.contactChecks = input.contact->checks() - checksBefore;
     if (!ok) {
-      contactsBefore_ = contactsAtStart;
-      restartSubsteps_ = restartsAtStart;
-      report.ok = false;
+      report.ok = false;  // the caller restores the state, its history with it
       return report;
     }
   }
@@ -195,51 +83,52 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
   return report;
 }
 
-void ImplicitIntegrator::prepare(const StepInput& input, const State& state, double h) {
+void ImplicitIntegrator::buildPotential(const StepInput& input, const State& state, double h,
+                                        double fractionStart, double fractionEnd) {
   Model& model = *input.model;
   model_ = &model;
   pinned_ = input.pinned;
   contact_ = input.contact;
-  mass_ = &model.dofMasses();
-  alpha_ = input.damping.massProportional;
-  beta_ = input.damping.stiffnessProportional;
   air_ = input.air;
-  if (air_ != nullptr) air_->lag(state.x);  // normals and areas at the start of the substep
-  const bool bdf2 = scheme_ == ImplicitScheme::Bdf2 && state.hasHistory() &&
-                    std::abs(state.historyDt - h) <= 1e-12 * h;
-  if (bdf2) {
-    xhat_ = (4.0 / 3.0) * state.x - (1.0 / 3.0) * state.xPrevious +
-            (8.0 / 9.0) * h * state.v - (2.0 / 9.0) * h * state.vPrevious;
-    c2_ = 4.0 / 9.0 * h * h;
-    gamma_ = 1.5 / h;
-    xc_ = (4.0 * state.x - state.xPrevious) / 3.0;
-  } else {
-    xhat_ = state.x + h * state.v;
-    c2_ = h * h;
-    gamma_ = 1.0 / h;
-    xc_ = state.x;
+  potential_.beginSubstep(scheme_, state, h, model.dim(), model.dofMasses(), *pinned_,
+                          fractionStart, fractionEnd);
+  // Conservative terms: the Model's first (it owns the Hessian pattern), then the contact's,
+  // then the loads; the dissipative ones after (incremental_potential.h).
+  elastic_.bind(model);
+  potential_.addTerm(elastic_);
+  // Contact (Li et al. 2020): Phi gains c^2 (kappa B + D), whose Hessian may couple vertices
+  // outside the model's pattern (self-contact), and every line search is bounded by CCD.
+  if (contact_ != nullptr) {
+    contactTerm_.bind(*contact_);
+    potential_.addTerm(contactTerm_);
   }
-  forceTotal_ = *input.gravityForce + *input.externalForce;
-  if (solver_ == nullptr) solver_ = makeLinearSolver(settings_.linear, model.numDofs());
-  // Lagged stiffness damping beta K0 (K0 projected, at the start of the substep).
-  if (beta_ > 0.0) {
-    SparseHessian& hessian = model.hessianPattern();
-    hessian.setZero();
-    EvalRequest request;
-    request.energy = false;
-    request.hessian = &hessian;
-    model.evaluate(state.x, request);
-    const Matrix& A = hessian.matrix();
-    laggedStiffness_.assign(A.valuePtr(), A.valuePtr() + A.nonZeros());
-    for (double& v : laggedStiffness_) v *= beta_;
+  loads_.setForces(*input.gravityForce, *input.externalForce);
+  potential_.addTerm(loads_);
+  massDamped_ = input.damping.massProportional > 0.0;
+  stiffnessDamped_ = input.damping.stiffnessProportional > 0.0;
+  if (massDamped_) {
+    massDamping_.configure(input.damping.massProportional, model.dofMasses());
+    potential_.addTerm(massDamping_);
+  }
+  if (stiffnessDamped_) {
+    stiffnessDamping_.configure(input.damping.stiffnessProportional, model);
+    potential_.addTerm(stiffnessDamping_);
+  }
+  if (air_ != nullptr) {
+    airTerm_.bind(*air_);
+    potential_.addTerm(airTerm_);
   }
 }
 
 bool ImplicitIntegrator::startingPoint(const StepInput& input, const State& state, int remaining,
                                        StepReport& report) {
   const std::vector<char>& pinned = *pinned_;
-  const VectorX& mass = *mass_;
+  const VectorX& mass = potential_.mass();
+  const VectorX& xhat = potential_.xhat();
+  const VectorX& force = loads_.force();
+  const double c2 = potential_.c2();
   const Index n = model_->numDofs();
+  VectorX& x = iterate_.x;
   // Candidates, pins at their targets: the explicit prediction xhat + c^2 M^-1 f, the inertial
   // prediction xhat and the current positions. The one with the lowest Phi starts Newton: the
   // explicit prediction is exact for a free fall, but under a load large against the masses it
@@ -248,52 +137,52 @@ bool ImplicitIntegrator::startingPoint(const StepInput& input, const State& stat
   // prediction as far as it is safe (ContactModel::startingPoint): adding the forces would push
   // resting cloth into its supports, and Newton would then spend iterations climbing back out of
   // the barrier (each one only doubles a distance that is too small).
-  x_.resize(n);
+  x.resize(n);
   for (Index i = 0; i < n; ++i) {
     const double target = state.x[i] + ((*input.pinTarget)[i] - state.x[i]) / remaining;
-    x_[i] = pinned[i] ? target : xhat_[i] + c2_ * forceTotal_[i] / mass[i];
+    x[i] = pinned[i] ? target : xhat[i] + c2 * force[i] / mass[i];
   }
   if (contact_ != nullptr) {
-    xTrial_ = x_;
+    xTrial_ = x;
     for (Index i = 0; i < n; ++i) {
-      if (!pinned[i]) xTrial_[i] = xhat_[i];
+      if (!pinned[i]) xTrial_[i] = xhat[i];
     }
-    if (Status s = contact_->startingPoint(state.x, xTrial_, x_); !s) {
+    if (Status s = contact_->startingPoint(state.x, xTrial_, x); !s) {
       report.error = name() + ": " + s.error();
       return false;
     }
   }
-  eval_ = evaluate(x_, gElastic_);
-  phi_ = eval_.inDomain ? potential(x_, eval_.energy) : kInfiniteEnergy;
+  TermsEvaluation& eval = iterate_.terms;
+  eval = potential_.evaluateTerms(x, &iterate_.termGradient);
+  iterate_.phi = eval.inDomain ? potential_.value(x, eval) : kInfiniteEnergy;
   bool moved = false;
   for (int candidate = 0; candidate < 2 && contact_ == nullptr; ++candidate) {
-    const VectorX& from = candidate == 0 ? xhat_ : state.x;
-    xTrial_ = x_;
+    const VectorX& from = candidate == 0 ? xhat : state.x;
+    xTrial_ = x;
     for (Index i = 0; i < n; ++i) {
       if (!pinned[i]) xTrial_[i] = from[i];
     }
-    if (candidate == 1 && xTrial_ == x_) continue;
-    const double elastic = model_->evaluate(xTrial_, EvalRequest{}).energy;
-    const double phi = potential(xTrial_, elastic);
-    if (phi < phi_) {
-      x_.swap(xTrial_);
-      phi_ = phi;
+    if (candidate == 1 && xTrial_ == x) continue;
+    const double phi = potential_.value(xTrial_, potential_.evaluateTerms(xTrial_, nullptr));
+    if (phi < iterate_.phi) {
+      x.swap(xTrial_);
+      iterate_.phi = phi;
       moved = true;
     }
   }
-  if (moved) eval_ = evaluate(x_, gElastic_);
-  if (!eval_.inDomain && contact_ != nullptr) {
+  if (moved) eval = potential_.evaluateTerms(x, &iterate_.termGradient);
+  if (!eval.inDomain && contact_ != nullptr) {
     // With contact: from the current positions (the pins alone may still leave the domain).
     for (Index i = 0; i < n; ++i) {
-      if (!pinned[i]) x_[i] = state.x[i];
+      if (!pinned[i]) x[i] = state.x[i];
     }
-    contact_->prepareSegment(x_, VectorX::Zero(n));
-    eval_ = evaluate(x_, gElastic_);
+    potential_.prepareStep(x, VectorX::Zero(n));
+    eval = potential_.evaluateTerms(x, &iterate_.termGradient);
   }
-  if (!eval_.inDomain) {
+  if (!eval.inDomain) {
     std::ostringstream msg;
-    if (eval_.firstBadElement >= 0) {
-      msg << name() << ": the pin motion in this step pushes element " << eval_.firstBadElement
+    if (eval.firstBadElement >= 0) {
+      msg << name() << ": the pin motion in this step pushes element " << eval.firstBadElement
           << " outside its material's domain (J <= 0)";
     } else {
       msg << name() << ": the pin motion in this step pushes the cloth into contact";
@@ -301,233 +190,81 @@ bool ImplicitIntegrator::startingPoint(const StepInput& input, const State& stat
     report.error = msg.str();
     return false;
   }
-  phi_ = potential(x_, eval_.energy);
-  potentialGradient(x_, gElastic_, g_);
+  iterate_.phi = potential_.value(x, eval);
+  potential_.gradient(x, iterate_.termGradient, iterate_.gradient);
   return true;
 }
 
-bool ImplicitIntegrator::newtonStep(StepReport& report) {
-  const std::vector<char>& pinned = *pinned_;
-  const VectorX& mass = *mass_;
-  const Index n = model_->numDofs();
-  SparseHessian& hessian = model_->hessianPattern();
-  Matrix& A = hessian.matrix();
-  // System matrix: M (1 + c^2 gamma alpha) + c^2 K + c^2 gamma beta K0, pins filtered.
-  hessian.setZero();
-  EvalRequest hessianOnly;
-  hessianOnly.energy = false;
-  hessianOnly.hessian = &hessian;
-  hessianOnly.hessianMode = HessianMode::Projected;
-  model_->evaluate(x_, hessianOnly);
-  double* values = A.valuePtr();
-  const Eigen::Index nnz = A.nonZeros();
-  for (Eigen::Index k = 0; k < nnz; ++k) values[k] *= c2_;
-  if (beta_ > 0.0) {
-    for (Eigen::Index k = 0; k < nnz; ++k) values[k] += c2_ * gamma_ * laggedStiffness_[k];
-  }
-  for (Index i = 0; i < n; ++i) {
-    values[hessian.diagonalOffset(i)] += mass[i] * (1.0 + c2_ * gamma_ * alpha_);
-  }
-  // The air's c^2 / gamma D(gamma (x - xc)) has the x-Hessian c^2 gamma d^2D/dv^2 (PSD).
-  if (air_ != nullptr) {
-    airVelocity_ = gamma_ * (x_ - xc_);
-    air_->addHessian(airVelocity_, c2_ * gamma_, hessian);
-  }
-  // Contact Hessian (c^2 times): entries outside the model's pattern make a system of its own.
-  Matrix* system = &A;
-  if (contact_ != nullptr) {
-    outsidePattern_.clear();
-    contact_->evaluate(x_, nullptr, &hessian, &outsidePattern_, c2_);
-    if (!outsidePattern_.empty()) {
-      contactExtra_.resize(n, n);
-      contactExtra_.setFromTriplets(outsidePattern_.begin(), outsidePattern_.end());
-      contactSystem_ = A + contactExtra_;
-      system = &contactSystem_;
-    }
-  }
-  filterPinned(*system, pinned, mass);
-  rhs_ = -g_;
-  for (Index i = 0; i < n; ++i) {
-    if (pinned[i]) rhs_[i] = 0.0;
-  }
-  dx_.setZero(n);
-  if (!solver_->compute(*system) || !solver_->solve(rhs_, dx_)) {
-    report.error = name() + ": the linear solve (" + solver_->name() + ") failed";
-    return false;
-  }
-  return true;
-}
-
-bool ImplicitIntegrator::lineSearch(double maxStep, StepReport& report) {
-  // Backtracking line search on Phi (Armijo); +inf (outside the domain) always backtracks.
-  const double slope = g_.dot(dx_);
-  double step = maxStep;
-  // Close to the minimum the decrease a Newton step makes, about -slope/2 (Newton decrement),
-  // falls below the round-off of Phi itself, which is of order eps times the magnitudes of its
-  // terms. Comparing Phi values there only compares noise: the search accepts tiny random
-  // steps and Newton stalls just above a tight tolerance (and more so after a rollback, since
-  // the decrement scales with c^4 and Phi with c^2). There the force residual, which has no
-  // such cancellation, is the merit function instead: the full step is taken if it lowers it.
-  const double phiScale =
-      std::abs(phi_) + 2.0 * c2_ * (std::abs(eval_.energy) + std::abs(forceTotal_.dot(x_)));
-  if (-slope <= 1e3 * std::numeric_limits<double>::epsilon() * phiScale && maxStep >= 1.0) {
-    xTrial_ = x_ + dx_;
-    const EvalResult trial = evaluate(xTrial_, gElasticTrial_);
-    if (trial.inDomain) {
-      potentialGradient(xTrial_, gElasticTrial_, gTrial_);
-      if (relativeGradient(gTrial_) < relativeGradient(g_)) {
-        eval_ = trial;
-        phi_ = potential(xTrial_, trial.energy);
-        return true;
-      }
-    }
-  }
-  for (int b = 0; b <= settings_.maxBacktracks; ++b) {
-    xTrial_ = x_ + step * dx_;
-    const EvalResult trial = evaluate(xTrial_, gElasticTrial_);
-    const double phiTrial = trial.inDomain ? potential(xTrial_, trial.energy) : kInfiniteEnergy;
-    if (phiTrial <= phi_ + settings_.armijo * step * slope) {
-      phi_ = phiTrial;
-      eval_ = trial;
-      lastFraction_ = step;
-      return true;
-    }
-    ++report.lineSearchBacktracks;
-    step *= 0.5;
+bool ImplicitIntegrator::solve(const StepInput& input, const State& state, double h,
+                               StepReport& report) {
+  // Converged when the last full Newton step, as a velocity, is below tolerance x the size of
+  // the cloth (a velocity error in cloth sizes per second, meaningful with or without gravity
+  // and for any mesh resolution), and the forces balance within the acceptance bound
+  // (acceptance.h, test (a)). A short step alone is not enough: its length is measured against
+  // h, and for a large h (100 s) "short" allows a step of metres, while around a kink of the
+  // energy steps shorten without the forces balancing.
+  if (sizeScale_ <= 0.0) sizeScale_ = std::max(restBoundingBoxDiagonal(model_->mesh()), 1e-12);
+  NewtonProblem problem;
+  problem.potential = &potential_;
+  problem.hessian = &model_->hessianPattern();
+  problem.pinned = pinned_;
+  problem.stepTolerance = newton_.settings().tolerance * sizeScale_ * h;  // m
+  problem.residual = [&](const NewtonIterate& it) { return residual(input, state, h, it); };
+  problem.residualTolerance = input.residualScale.tolerance;
+  const NewtonOutcome outcome = newton_.solve(problem, iterate_);
+  report.newtonIterations += outcome.iterations;
+  report.lineSearchBacktracks += outcome.backtracks;
+  if (outcome.ok) return true;
+  report.error = name() + ": " + outcome.error;
+  if (outcome.forces) {
+    const ForceResidual left = residual(input, state, h, iterate_);
+    report.unbalanced.merge(left);
+    report.error += " (" + residualText(left) + ")";
   }
   return false;
-}
-
-bool ImplicitIntegrator::newton(const StepInput& input, const State& state, double h,
-                                StepReport& report) {
-  // Convergence needs both (a) the Newton-decrement criterion of Li et al., "Incremental
-  // Potential Contact", 2020: Newton converges quadratically, so the length of the last full
-  // Newton step bounds the remaining error; converged when that step, as a velocity |dx|_inf / h,
-  // is below tolerance x the size of the cloth (a velocity error in cloth sizes per second,
-  // meaningful with or without gravity and for any mesh resolution); and (b) balanced forces:
-  // the unbalanced force on every free DOF within the acceptance bound (acceptance.h, test (a)).
-  // A short step alone is not enough: its length is measured against h, and for a large h
-  // (100 s) "short" allows a step of metres, while around a kink of the energy steps shorten
-  // without the forces balancing.
-  if (sizeScale_ <= 0.0) sizeScale_ = std::max(restBoundingBoxDiagonal(model_->mesh()), 1e-12);
-  const double stepTolerance = settings_.tolerance * sizeScale_ * h;  // m
-  const double tolerance = input.residualScale.tolerance;
-  double lastStep = std::numeric_limits<double>::infinity();
-  int iterations = 0;
-  auto fail = [&](const std::string& what) {
-    report.newtonIterations += iterations;
-    report.unbalanced.merge(residual(input, state, h));
-    report.error = name() + ": " + what + " (" + residualText(residual(input, state, h)) + ")";
-    return false;
-  };
-  auto moveTo = [&]() {
-    x_.swap(xTrial_);
-    gElastic_.swap(gElasticTrial_);
-    potentialGradient(x_, gElastic_, g_);
-  };
-  while (true) {
-    if (iterations >= settings_.maxIterations) {
-      std::ostringstream msg;
-      msg << "Newton did not converge in " << iterations << " iterations (last step "
-          << lastStep / h << " m/s, tolerance " << stepTolerance / h << " m/s)";
-      return fail(msg.str());
-    }
-    ++iterations;
-    if (!newtonStep(report)) {
-      report.newtonIterations += iterations;
-      return false;
-    }
-    const double stepLength = dx_.cwiseAbs().maxCoeff();
-    lastStep = stepLength;
-    // With contact the step may go only as far as CCD finds collision-free.
-    const double maxStep = contact_ != nullptr ? contact_->prepareSegment(x_, dx_) : 1.0;
-    if (stepLength <= stepTolerance && maxStep >= 1.0) {
-      // A Newton step shorter than the tolerance: the error left is below it. Take the step (if
-      // it stays in the domain), without a line search, whose test would only compare round-off;
-      // stop if the forces balance.
-      xTrial_ = x_ + dx_;
-      const EvalResult trial = evaluate(xTrial_, gElasticTrial_);
-      if (trial.inDomain) {
-        eval_ = trial;
-        moveTo();
-        phi_ = potential(x_, eval_.energy);
-      }
-      if (residual(input, state, h).relative <= tolerance) break;
-      continue;
-    }
-    lastFraction_ = 1.0;
-    if (!lineSearch(maxStep, report)) {
-      // No measurable decrease of Phi: at its minimum to round-off, if the forces balance.
-      if (residual(input, state, h).relative <= tolerance) break;
-      std::ostringstream msg;
-      msg << "the line search found no decrease of the incremental potential after "
-          << settings_.maxBacktracks << " backtracks";
-      return fail(msg.str());
-    }
-    moveTo();
-    // A full Newton step that was already short: converged without another solve.
-    if (lastFraction_ == 1.0 && stepLength <= stepTolerance &&
-        residual(input, state, h).relative <= tolerance) {
-      break;
-    }
-  }
-  report.newtonIterations += iterations;
-  if (!x_.allFinite()) {
-    report.error = name() + ": the Newton iterate became non-finite";
-    return false;
-  }
-  return true;
 }
 
 bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h, int remaining,
                                  double fractionStart, double fractionEnd, VectorX& pinForce,
                                  StepReport& report) {
-  prepare(input, state, h);
-  const std::vector<char>& pinned = *pinned_;
-  const VectorX& mass = *mass_;
-  const Index n = model_->numDofs();
-  // Contact (Li et al. 2020): Phi gains c^2 (kappa B + D), whose Hessian may couple vertices
-  // outside the model's pattern (self-contact), and every line search is bounded by CCD.
-  if (contact_ != nullptr) {
-    contact_->beginSubstep(state.x, xc_, gamma_, h, pinned, fractionStart, fractionEnd);
-  }
+  buildPotential(input, state, h, fractionStart, fractionEnd);
   if (!startingPoint(input, state, remaining, report)) return false;
-  if (!newton(input, state, h, report)) return false;
-  const ForceResidual unbalanced = residual(input, state, h);
+  if (!solve(input, state, h, report)) return false;
+  const ForceResidual unbalanced = residual(input, state, h, iterate_);
   report.unbalanced.merge(unbalanced);
   report.residual = report.unbalanced.largest;
-
   if (contact_ != nullptr) {
     ContactStats stats;
-    contact_->finishSubstep(x_, state.x, stats);
+    contact_->finishSubstep(iterate_.x, state.x, stats);
     report.contacts = stats.contacts;
     report.minContactDistance = stats.minDistance;
     report.contactWork += stats.work;
   }
+  commit(state, h, pinForce, report);
+  return true;
+}
 
-  // Commit: velocities, pin forces (the pins supply the residual force on their DOFs: the
-  // equation of motion there reads dPhi/dx / c^2 = f_pin) and their work over the substep,
-  // damping work, history.
-  VectorX vNew = gamma_ * (x_ - xc_);
-  for (Index i = 0; i < n; ++i) {
-    pinForce[i] = pinned[i] ? g_[i] / c2_ : 0.0;
-    if (pinned[i]) report.pinWork += pinForce[i] * (x_[i] - state.x[i]);
+void ImplicitIntegrator::commit(State& state, double h, VectorX& pinForce, StepReport& report) {
+  // Velocities, pin forces (the pins supply the residual force on their DOFs: the equation of
+  // motion there reads dPhi/dx / c^2 = f_pin) and their work over the substep, damping work,
+  // history.
+  const std::vector<char>& pinned = *pinned_;
+  const VectorX& x = iterate_.x;
+  const VectorX& g = iterate_.gradient;
+  const double c2 = potential_.c2();
+  VectorX vNew = potential_.gamma() * (x - potential_.xc());
+  for (Index i = 0; i < x.size(); ++i) {
+    pinForce[i] = pinned[i] ? g[i] / c2 : 0.0;
+    if (pinned[i]) report.pinWork += pinForce[i] * (x[i] - state.x[i]);
   }
-  if (alpha_ > 0.0) report.dissipated += h * alpha_ * vNew.dot(mass.cwiseProduct(vNew));
-  if (beta_ > 0.0) {
-    patternProduct(model_->hessianPattern().matrix(), laggedStiffness_, vNew, scratch_);
-    report.dissipated += h * vNew.dot(scratch_);
-  }
-  if (air_ != nullptr) {
-    air_->force(vNew, airForce_);
-    report.airWork += airForce_.dot(x_ - state.x);
-  }
+  if (massDamped_) report.dissipated += massDamping_.dissipated(vNew, h);
+  if (stiffnessDamped_) report.dissipated += stiffnessDamping_.dissipated(vNew, h);
+  if (air_ != nullptr) report.airWork += airTerm_.force(vNew).dot(x - state.x);
   state.xPrevious.swap(state.x);
   state.vPrevious.swap(state.v);
-  state.x = x_;
+  state.x = x;
   state.v = std::move(vNew);
   state.historyDt = h;
-  return true;
 }
 
 }  // namespace fem_cloth

@@ -167,6 +167,27 @@ class ContactModel {
   double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
                      std::vector<Eigen::Triplet<double>>* outside, double scale,
                      std::vector<ObstacleWrench>* wrench, ContactStats* stats);
+  /// Where one evaluateAll() writes, and the energy it has summed so far.
+  struct Assembly {
+    VectorX* gradient = nullptr;
+    SparseHessian* hessian = nullptr;
+    std::vector<Eigen::Triplet<double>>* outside = nullptr;
+    double scale = 1.0;
+    std::vector<ObstacleWrench>* wrench = nullptr;
+    ContactStats* stats = nullptr;
+    double energy = 0.0;
+    /// The wrench and the Hessian need the gradients of the distances too.
+    bool wantsGradient() const { return gradient != nullptr || hessian != nullptr || wrench != nullptr; }
+    void note(double distance, double dHat);
+  };
+  // The parts of evaluateAll, in its order; false when a distance is zero or negative.
+  bool addObstacleBarriers(const VectorX& x, Assembly& a);
+  bool addPointTriangleBarriers(const VectorX& x, Assembly& a);
+  bool addEdgeEdgeBarriers(const VectorX& x, Assembly& a);
+  void addFriction(const VectorX& x, Assembly& a) const;
+  /// Adds a 4-vertex pair's gradient and (PSD) Hessian, times a.scale.
+  void scatter(const std::array<Index, 4>& v, const Eigen::Matrix<double, 12, 1>& g,
+               const Eigen::Matrix<double, 12, 12>* H, Assembly& a) const;
   void selfCandidates(const VectorX& x, const VectorX* dx);
   double edgeMollifierThreshold(Index ea, Index eb) const;
 

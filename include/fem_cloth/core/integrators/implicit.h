@@ -13,12 +13,12 @@
 // beta K0 the Rayleigh damping with K0 the projected stiffness at the start of the step.
 //
 // Setting dPhi/dx = 0 gives exactly the implicit update M (x - xhat) = c^2 (f - dE/dx - D v+).
-// Phi is minimised by Newton's method with per-element PSD-projected Hessians (so every Newton
-// direction descends) and a backtracking (Armijo) line search on Phi, which therefore never
-// increases; states outside a material's domain (Neo-Hookean J <= 0) have Phi = +inf and are
-// rejected by the line search. Pinned DOFs are filtered: their rows and columns are replaced by
-// the identity (scaled by their mass) with zero right-hand side, which keeps the matrix pattern,
-// and so the symbolic factorisation, fixed while pins come and go.
+// This class is thin: each substep it builds Phi as an IncrementalPotential of terms
+// (potential/incremental_potential.h, potential/terms.h), has NewtonSolver (solvers/newton.h:
+// projected Newton, pins eliminated, CCD-bounded Armijo line search, so Phi never increases and
+// states outside a material's domain, Phi = +inf, are rejected) minimise it from a starting
+// point of its own, and books the result: velocities, pin forces, damping and air work, and the
+// State's history, which also carries the BDF2 restart after an impact (see step()).
 //
 // Air (air.h; only when the scene has `air`): Phi gains c^2 / gamma D(gamma (x - xc)), the air's
 // dissipation potential at the step's velocity with normals and areas lagged at the start of the
@@ -31,24 +31,11 @@
 #pragma once
 
 #include "fem_cloth/core/integrators/integrator.h"
-#include "fem_cloth/core/integrators/linear_solver.h"
+#include "fem_cloth/core/potential/incremental_potential.h"
+#include "fem_cloth/core/potential/terms.h"
+#include "fem_cloth/core/solvers/newton.h"
 
 namespace fem_cloth {
-
-enum class ImplicitScheme { BackwardEuler, Bdf2 };
-
-struct NewtonSettings {
-  int maxIterations = 50;
-  /// Converged when the last full Newton step, as a velocity |dx|_inf / h, is below
-  /// tolerance x the rest bounding-box diagonal (a velocity error in cloth sizes per second)
-  /// and the forces are balanced (acceptance test (a), StepInput::residualScale).
-  /// The default, 1e-3, allows 1.4e-5 m per 0.01 s step on a 1 m cloth: far below backward
-  /// Euler's own truncation error (about g h^2 / 2 = 5e-4 m).
-  double tolerance = 1e-3;
-  int maxBacktracks = 40;
-  double armijo = 1e-4;  ///< sufficient-decrease constant of the line search
-  LinearSolverSettings linear;
-};
 
 class ImplicitIntegrator final : public Integrator {
  public:
@@ -58,71 +45,52 @@ class ImplicitIntegrator final : public Integrator {
   StepReport step(const StepInput& input, State& state, double dt, int minSubsteps,
                   VectorX& pinForce) override;
   void invalidate() override {
-    solver_.reset();
+    newton_.invalidate();
     sizeScale_ = 0.0;
   }
 
   /// The linear solver in use (null before the first step).
-  const LinearSolver* linearSolver() const { return solver_.get(); }
+  const LinearSolver* linearSolver() const { return newton_.linearSolver(); }
 
  private:
   /// One implicit substep of size h over the fraction [fractionStart, fractionEnd] of the step;
   /// on failure returns false with report.error set.
   bool substep(const StepInput& input, State& state, double h, int remaining,
                double fractionStart, double fractionEnd, VectorX& pinForce, StepReport& report);
-  /// The scheme's coefficients and Phi's per-substep data (xhat, c^2, gamma, lagged stiffness).
-  void prepare(const StepInput& input, const State& state, double h);
-  /// The first Newton iterate x_ (with gElastic_ and phi_ at it); false if every candidate
-  /// leaves a material's domain.
+  /// Phi for the substep: the scheme's coefficients and the terms the scene has.
+  void buildPotential(const StepInput& input, const State& state, double h, double fractionStart,
+                      double fractionEnd);
+  /// The first Newton iterate (evaluated there); false if every candidate leaves a material's
+  /// domain.
   bool startingPoint(const StepInput& input, const State& state, int remaining, StepReport& report);
-  /// Newton's iterations from x_ until converged; false (report.error set) if they fail.
-  bool newton(const StepInput& input, const State& state, double h, StepReport& report);
-  /// Assembles the Newton system at x_ and solves it for dx_.
-  bool newtonStep(StepReport& report);
-  /// The backtracking line search along dx_ from x_ (at most maxStep of it); true and x_ moved
-  /// if it found a decrease.
-  bool lineSearch(double maxStep, StepReport& report);
-  /// Elastic energy and gradient at x (+ the contact potential), into gradient.
-  EvalResult evaluate(const VectorX& x, VectorX& gradient);
-  /// Phi at x given the elastic energy there (damping included); +inf outside the domain.
-  double potential(const VectorX& x, double elastic);
-  /// dPhi/dx at x given the elastic gradient there (damping included).
-  void potentialGradient(const VectorX& x, const VectorX& elasticGradient, VectorX& out);
-  /// Acceptance test (a) at x_: the unbalanced forces g_ / c^2 against their scale.
-  ForceResidual residual(const StepInput& input, const State& state, double h);
-  /// Largest |g_i| / (m_i g c^2) over free DOFs: the merit of the round-off fallback.
-  double relativeGradient(const VectorX& g) const;
+  /// Newton's iterations until converged; false (report.error set) if they fail.
+  bool solve(const StepInput& input, const State& state, double h, StepReport& report);
+  /// Acceptance test (a) at an iterate: the unbalanced forces dPhi/dx / c^2 against their scale.
+  ForceResidual residual(const StepInput& input, const State& state, double h,
+                         const NewtonIterate& it);
   std::string residualText(const ForceResidual& r) const;
+  /// Books the converged substep into the state and the report.
+  void commit(State& state, double h, VectorX& pinForce, StepReport& report);
 
   ImplicitScheme scheme_;
-  NewtonSettings settings_;
-  std::unique_ptr<LinearSolver> solver_;
-  // Per-substep data of Phi.
-  const VectorX* mass_ = nullptr;
-  double c2_ = 0.0, gamma_ = 0.0, alpha_ = 0.0, beta_ = 0.0;
-  VectorX xhat_, xc_, forceTotal_;
-  std::vector<double> laggedStiffness_;  // beta K0 values in the model's Hessian pattern
+  NewtonSolver newton_;
+  IncrementalPotential potential_;
+  ElasticTerm elastic_;
+  LoadTerm loads_;
+  MassDampingTerm massDamping_;
+  StiffnessDampingTerm stiffnessDamping_;
+  AirTerm airTerm_;
+  ContactTerm contactTerm_;
   double sizeScale_ = 0.0;  // rest bounding-box diagonal (m)
-  // Newton's state: the iterate, Phi and the elastic energy there (last evaluation).
-  VectorX x_, g_, gElastic_;
-  double phi_ = 0.0;
-  EvalResult eval_;
-  double lastFraction_ = 1.0;  // of dx_ the last line search took
+  NewtonIterate iterate_;
+  // The substep's scene.
+  Model* model_ = nullptr;
   const std::vector<char>* pinned_ = nullptr;
   ContactModel* contact_ = nullptr;
   AirModel* air_ = nullptr;  // null: no air term in Phi
-  VectorX airVelocity_, airForce_;
-  Model* model_ = nullptr;
+  bool massDamped_ = false, stiffnessDamped_ = false;
   // Scratch, sized once.
-  VectorX dx_, rhs_, xTrial_, gTrial_, gElasticTrial_, scratch_, unbalancedForce_, velocity_;
-  // Contact: Hessian entries outside the model's pattern, and the system that includes them.
-  std::vector<Eigen::Triplet<double>> outsidePattern_;
-  LinearSolver::Matrix contactExtra_, contactSystem_;
-  // BDF2 restarts at an impact (see step()): contacts after the last substep, backward Euler
-  // substeps still to take, and the state before the current substep.
-  int contactsBefore_ = 0;
-  int restartSubsteps_ = 0;
-  State beforeImpact_;
+  VectorX xTrial_, unbalancedForce_, velocity_;
 };
 
 }  // namespace fem_cloth

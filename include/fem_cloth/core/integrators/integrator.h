@@ -30,20 +30,39 @@ struct Damping {
 };
 
 /// The dynamic state. BDF2 needs the previous step as well.
+///
+/// The history (xPrevious, vPrevious) is usable only while it is smooth: a change of step size
+/// drops it (historyDt no longer matches), and so does an impact, more contacts at the end of a
+/// substep than at the end of the one before, for that substep and the next ones whose history
+/// still holds the velocity jump (ImplicitIntegrator::step). Both travel with the state, so a
+/// rolled-back step, a reset or a copy restores them with it.
 struct State {
   VectorX x;  ///< positions (m), flat
   VectorX v;  ///< velocities (m/s), flat
   VectorX xPrevious;  ///< positions one step earlier (empty if there is no history)
   VectorX vPrevious;
-  double historyDt = 0.0;  ///< step size that separates x and xPrevious
+  double historyDt = 0.0;  ///< step size that separates x and xPrevious; 0: no history
   double time = 0.0;       ///< s
   std::uint64_t step = 0;
+  int contacts = 0;  ///< contacts at the end of the last substep (0 without contact handling)
+  int unsmoothSubsteps = 0;  ///< substeps still to start without history (after an impact)
   bool hasHistory() const { return xPrevious.size() == x.size() && historyDt > 0.0; }
   void clearHistory() {
     xPrevious.resize(0);
     vPrevious.resize(0);
     historyDt = 0.0;
+    contacts = unsmoothSubsteps = 0;
   }
+  /// Before a substep: drops the history if an impact is still in it.
+  void beginSubstep() {
+    if (xPrevious.size() != x.size()) contacts = unsmoothSubsteps = 0;  // a new run
+    if (unsmoothSubsteps > 0) {
+      historyDt = 0.0;
+      --unsmoothSubsteps;
+    }
+  }
+  /// An impact at the end of the last substep: the history holds it for `substeps` more.
+  void impact(int substeps) { unsmoothSubsteps = substeps; }
 };
 
 /// Everything a step needs besides the state. Vectors are per DOF.

@@ -1,0 +1,175 @@
+#include "fem_cloth/core/solvers/newton.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace fem_cloth {
+
+namespace {
+
+using Matrix = LinearSolver::Matrix;
+
+// Replaces the rows and columns of pinned DOFs by the identity scaled by the DOF's mass, so
+// that the pattern is unchanged and the solve leaves pinned DOFs where they are.
+void filterPinned(Matrix& A, const std::vector<char>& pinned, const VectorX& mass) {
+  double* values = A.valuePtr();
+  const int* outer = A.outerIndexPtr();
+  const int* inner = A.innerIndexPtr();
+  for (Eigen::Index j = 0; j < A.outerSize(); ++j) {
+    const bool pinnedColumn = pinned[j] != 0;
+    for (int k = outer[j]; k < outer[j + 1]; ++k) {
+      const int i = inner[k];
+      if (pinnedColumn || pinned[i]) values[k] = (i == j) ? mass[i] : 0.0;
+    }
+  }
+}
+
+}  // namespace
+
+double NewtonSolver::relativeGradient(const NewtonProblem& problem, const VectorX& g) const {
+  const std::vector<char>& pinned = *problem.pinned;
+  const VectorX& mass = problem.potential->mass();
+  double worst = 0.0;
+  for (Index i = 0; i < g.size(); ++i) {
+    if (!pinned[i]) worst = std::max(worst, std::abs(g[i]) / (mass[i] * kStandardGravity));
+  }
+  return worst / problem.potential->c2();
+}
+
+void NewtonSolver::moveToTrial(const NewtonProblem& problem, NewtonIterate& it) {
+  it.x.swap(xTrial_);
+  it.termGradient.swap(termGradientTrial_);
+  problem.potential->gradient(it.x, it.termGradient, it.gradient);
+}
+
+bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate& it) {
+  const std::vector<char>& pinned = *problem.pinned;
+  const VectorX& mass = problem.potential->mass();
+  const Index n = it.x.size();
+  if (solver_ == nullptr) solver_ = makeLinearSolver(settings_.linear, n);
+  problem.potential->hessian(it.x, *problem.hessian, outsidePattern_);
+  // Entries outside the Model's pattern (self-contact) make a system of their own.
+  Matrix* system = &problem.hessian->matrix();
+  if (!outsidePattern_.empty()) {
+    extra_.resize(n, n);
+    extra_.setFromTriplets(outsidePattern_.begin(), outsidePattern_.end());
+    system_ = problem.hessian->matrix() + extra_;
+    system = &system_;
+  }
+  filterPinned(*system, pinned, mass);
+  rhs_ = -it.gradient;
+  for (Index i = 0; i < n; ++i) {
+    if (pinned[i]) rhs_[i] = 0.0;
+  }
+  dx_.setZero(n);
+  return solver_->compute(*system) && solver_->solve(rhs_, dx_);
+}
+
+bool NewtonSolver::lineSearch(const NewtonProblem& problem, double maxStep, NewtonIterate& it,
+                              NewtonOutcome& outcome) {
+  IncrementalPotential& potential = *problem.potential;
+  // Backtracking line search on Phi (Armijo); +inf (outside the domain) always backtracks.
+  const double slope = it.gradient.dot(dx_);
+  double step = maxStep;
+  // Close to the minimum the decrease a Newton step makes, about -slope/2 (Newton decrement),
+  // falls below the round-off of Phi itself, which is of order eps times the magnitudes of its
+  // terms. Comparing Phi values there only compares noise: the search accepts tiny random
+  // steps and Newton stalls just above a tight tolerance (and more so after a rollback, since
+  // the decrement scales with c^4 and Phi with c^2). There the force residual, which has no
+  // such cancellation, is the merit function instead: the full step is taken if it lowers it.
+  const double phiScale = potential.roundoff(it.phi, it.terms);
+  if (-slope <= 1e3 * std::numeric_limits<double>::epsilon() * phiScale && maxStep >= 1.0) {
+    xTrial_ = it.x + dx_;
+    const TermsEvaluation trial = potential.evaluateTerms(xTrial_, &termGradientTrial_);
+    if (trial.inDomain) {
+      potential.gradient(xTrial_, termGradientTrial_, gTrial_);
+      if (relativeGradient(problem, gTrial_) < relativeGradient(problem, it.gradient)) {
+        it.terms = trial;
+        it.phi = potential.value(xTrial_, trial);
+        return true;
+      }
+    }
+  }
+  for (int b = 0; b <= settings_.maxBacktracks; ++b) {
+    xTrial_ = it.x + step * dx_;
+    const TermsEvaluation trial = potential.evaluateTerms(xTrial_, &termGradientTrial_);
+    const double phiTrial = trial.inDomain ? potential.value(xTrial_, trial) : kInfiniteEnergy;
+    if (phiTrial <= it.phi + settings_.armijo * step * slope) {
+      it.phi = phiTrial;
+      it.terms = trial;
+      lastFraction_ = step;
+      return true;
+    }
+    ++outcome.backtracks;
+    step *= 0.5;
+  }
+  return false;
+}
+
+NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& it) {
+  IncrementalPotential& potential = *problem.potential;
+  const double h = potential.frame().h;
+  const double stepTolerance = problem.stepTolerance;
+  NewtonOutcome outcome;
+  double lastStep = std::numeric_limits<double>::infinity();
+  auto fail = [&](const std::string& what) {
+    outcome.ok = false;
+    outcome.error = what;
+    outcome.forces = true;
+    return outcome;
+  };
+  auto balanced = [&]() { return problem.residual(it).relative <= problem.residualTolerance; };
+  while (true) {
+    if (outcome.iterations >= settings_.maxIterations) {
+      std::ostringstream msg;
+      msg << "Newton did not converge in " << outcome.iterations << " iterations (last step "
+          << lastStep / h << " m/s, tolerance " << stepTolerance / h << " m/s)";
+      return fail(msg.str());
+    }
+    ++outcome.iterations;
+    if (!newtonStep(problem, it)) {
+      outcome.ok = false;
+      outcome.error = "the linear solve (" + solver_->name() + ") failed";
+      return outcome;
+    }
+    const double stepLength = dx_.cwiseAbs().maxCoeff();
+    lastStep = stepLength;
+    // The step may go only as far as the step-bounding terms (CCD) find safe.
+    const double maxStep = potential.hasStepBound() ? potential.prepareStep(it.x, dx_) : 1.0;
+    if (stepLength <= stepTolerance && maxStep >= 1.0) {
+      // A Newton step shorter than the tolerance: the error left is below it. Take the step (if
+      // it stays in the domain), without a line search, whose test would only compare round-off;
+      // stop if the forces balance.
+      xTrial_ = it.x + dx_;
+      const TermsEvaluation trial = potential.evaluateTerms(xTrial_, &termGradientTrial_);
+      if (trial.inDomain) {
+        it.terms = trial;
+        moveToTrial(problem, it);
+        it.phi = potential.value(it.x, it.terms);
+      }
+      if (balanced()) break;
+      continue;
+    }
+    lastFraction_ = 1.0;
+    if (!lineSearch(problem, maxStep, it, outcome)) {
+      // No measurable decrease of Phi: at its minimum to round-off, if the forces balance.
+      if (balanced()) break;
+      std::ostringstream msg;
+      msg << "the line search found no decrease of the incremental potential after "
+          << settings_.maxBacktracks << " backtracks";
+      return fail(msg.str());
+    }
+    moveToTrial(problem, it);
+    // A full Newton step that was already short: converged without another solve.
+    if (lastFraction_ == 1.0 && stepLength <= stepTolerance && balanced()) break;
+  }
+  if (!it.x.allFinite()) {
+    outcome.ok = false;
+    outcome.error = "the Newton iterate became non-finite";
+  }
+  return outcome;
+}
+
+}  // namespace fem_cloth
