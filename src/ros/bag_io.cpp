@@ -288,6 +288,24 @@ std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt) {
   return s.stamp - ros::Duration(back);
 }
 
+std::optional<Timeline> runTimeline(const RecordedRun& run, double dt) {
+  const std::optional<ros::Time> epoch = runEpoch(run, dt);
+  if (!epoch) return std::nullopt;
+  Timeline timeline(*epoch);
+  // Step-0 states are left to runEpoch: a node paused from the start moves its origin until
+  // its first step.
+  for (const RecordedState& s : run.states) {
+    if (s.step == 0) continue;
+    const TimelineSegment& in = timeline.at(s.step);
+    // Where the segment has this state: its start + (step - its step) x dt, to well within the
+    // tolerance (the simulator's time is a sum of steps, the stamps are whole nanoseconds).
+    const double expected = static_cast<double>(s.step - in.step) * dt;
+    if (std::abs(secondsBetween(s.stamp, in.stamp) - expected) <= kSegmentTolerance) continue;
+    if (!timeline.add(s.step, s.stamp)) return std::nullopt;  // steps only increase (readRun)
+  }
+  return timeline;
+}
+
 Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {
   const std::string counts = std::to_string(recorded.vertices.size()) + " vertices, " +
                              std::to_string(recorded.triangles.size()) + " triangles";

@@ -68,21 +68,21 @@ double recordedDt(const RecordedRun& run, double replayDt) {
   return replayDt;
 }
 
-// The ROS time of simulation time 0: from the recorded states, else the start of the bag (or 0
-// without one). Every stamp the replay compares with it lies within kMaxRecordingSpan of the
-// start of the recording (readRun), so keeping it there too keeps their differences within what
-// ros::Duration holds.
-Expected<ros::Time> replayEpoch(const RecordedRun* run, double dt) {
-  if (run == nullptr) return ros::Time(0);
-  if (run->states.empty()) return run->begin;
-  const std::optional<ros::Time> epoch = runEpoch(*run, recordedDt(*run, dt));
+// The timeline of the replay: the recorded states' (runTimeline()), else from the start of the
+// bag (or 0 without one). Every stamp the replay compares with it lies within kMaxRecordingSpan
+// of the start of the recording (readRun), so keeping its origin there too keeps their
+// differences within what ros::Duration holds.
+Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) {
+  if (run == nullptr) return Timeline(ros::Time(0));
+  if (run->states.empty()) return Timeline(run->begin);
+  const std::optional<Timeline> timeline = runTimeline(*run, recordedDt(*run, dt));
   const RecordedState& first = run->states.front();
-  if (!epoch || std::abs(secondsBetween(*epoch, run->begin)) > kMaxRecordingSpan) {
+  if (!timeline || std::abs(secondsBetween(timeline->origin(), run->begin)) > kMaxRecordingSpan) {
     return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
                  ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
                  "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
   }
-  return *epoch;
+  return *timeline;
 }
 
 // How long the run lasts (s): --duration, else up to the last recorded state, the last command
@@ -127,6 +127,7 @@ class DriverRun : public DrivenSimulation {
  public:
   DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
       : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
+    if (std::optional<Timeline> timeline = runTimeline(run, recordedDt)) driver_.setTimeline(*timeline);
     // A command the driver rejects was rejected live as well (the recording holds the applied
     // stream): skipping it is what the node did.
     for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
@@ -199,15 +200,16 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   }
   const double dt = scene->dt;
   DriverSettings settings;
-  Expected<ros::Time> epoch = replayEpoch(run ? &*run : nullptr, dt);
-  if (!epoch) return Error{epoch.error()};
-  settings.epoch = *epoch;
+  Expected<Timeline> timeline = replayTimeline(run ? &*run : nullptr, dt);
+  if (!timeline) return Error{timeline.error()};
+  settings.epoch = timeline->origin();
   if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
+  driver.setTimeline(*timeline);
   report.integrator = driver.simulator().integrator().name();
 
   // Every command up front: the driver applies each at its stamp.

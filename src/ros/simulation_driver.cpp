@@ -46,21 +46,43 @@ SimulationDriver::SimulationDriver(Simulation simulation, DriverSettings setting
                                    YAML::Node document)
     : simulation_(std::move(simulation)),
       settings_(std::move(settings)),
+      timeline_(settings_.epoch),
       document_(std::move(document)),
       frames_(tf, settings_.frame, settings_.tfTimeout),
       pending_(settings_.maxPendingCommands),
       pinSet_(settings_.maxPinJump) {}
 
 ros::Time SimulationDriver::stampOf(double simulationTime) const {
-  // epoch + ros::Duration(simulationTime), bit for bit, without rostime's exception: step() stops
-  // before a state's stamp would leave the range, so the fallback is never a state's stamp.
-  const Expected<ros::Time> t = checkedTimeAfter(settings_.epoch, simulationTime, "simulation time");
+  // In the segment of the current step (the step being taken starts and ends in it); the first
+  // segment's is epoch + ros::Duration(simulationTime), bit for bit, without rostime's exception:
+  // step() stops before a state's stamp would leave the range, so the fallback is never a
+  // state's stamp.
+  const Expected<ros::Time> t = timeline_.stampOf(stepIndex(), simulationTime, "simulation time");
   return t ? *t : ros::TIME_MAX;
 }
 
 Expected<double> SimulationDriver::commandTime(const ros::Time& stamp) const {
   if (stamp.isZero()) return -1.0;
-  return checkedSecondsSince(stamp, settings_.epoch, "header.stamp");
+  return timeline_.timeOf(stamp, simulator().settings().dt, "header.stamp");
+}
+
+void SimulationDriver::setTimeline(Timeline timeline) {
+  timeline_ = std::move(timeline);
+  settings_.epoch = timeline_.origin();
+  timeline_.reach(stepIndex(), simulator().time());
+  retimePending();
+}
+
+void SimulationDriver::startSegment(const ros::Time& stamp) {
+  timeline_.start(stepIndex(), simulator().time(), stamp);
+  retimePending();
+}
+
+void SimulationDriver::retimePending() {
+  pending_.retime([this](const Command& c, double before) {
+    const Expected<double> t = commandTime(headerOf(c).stamp);
+    return t ? *t : before;  // checked against the timeline when it came: cannot fail
+  });
 }
 
 CommandCounts SimulationDriver::commandCounts(CommandTopic topic) const {
@@ -364,7 +386,7 @@ StepReport SimulationDriver::step() {
   const double t = simulator().time();
   const double dt = simulator().settings().dt;
   // Every state is stamped with its ROS time: a run stops before that would leave the range.
-  if (Expected<ros::Time> end = checkedTimeAfter(settings_.epoch, t + dt, "the end of the step at simulation time");
+  if (Expected<ros::Time> end = timeline_.stampOf(stepIndex(), t + dt, "the end of the step at simulation time");
       !end) {
     StepReport refused;
     refused.ok = false;
@@ -382,7 +404,10 @@ StepReport SimulationDriver::step() {
     warnings_.push_back(std::move(w));
   }
   followObstacleFrames(t, t + dt);
-  return sim.step();
+  StepReport report = sim.step();
+  // A segment rebuilt from a recording starts here: its simulation time is known now.
+  if (report.ok && timeline_.reach(stepIndex(), simulator().time())) retimePending();
+  return report;
 }
 
 void SimulationDriver::followObstacleFrames(double time, double endTime) {
@@ -427,6 +452,7 @@ void SimulationDriver::reset() {
   pinSet_.clear();
   obstacleFrame_.clear();
   applied_.clear();
+  timeline_ = Timeline(timeline_.origin());
 }
 
 std::vector<Command> SimulationDriver::takeApplied() {
