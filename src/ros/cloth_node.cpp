@@ -524,9 +524,8 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
     statePub_.publish(toMsg(driver_->header(), sim.state(), sim.dim(), publishVelocities_));
     if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
-      StepStats stats = statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_);
-      setCommandStats(stats, [this](CommandTopic topic) { return commandCounts(topic); });
-      statsPub_.publish(stats);
+      statsPub_.publish(statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_,
+                                     [this](CommandTopic topic) { return commandCounts(topic); }));
     }
     publishPinReactions();
     bool wrenchWanted = false;

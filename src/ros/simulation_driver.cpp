@@ -246,24 +246,33 @@ Expected<ObstacleEdit> obstacleChange(const ObstacleCommand& c) {
 
 }  // namespace
 
-template <>
-Status SimulationDriver::check(const ObstacleCommand& c) const {
-  if (Status s = needsDocument(); !s) return s;
+Status obstacleCommandProblem(const YAML::Node& document, const ObstacleCommand& c) {
   const Expected<ObstacleEdit> kind = obstacleChange(c);
   if (!kind) return Error{kind.error()};
   if (*kind == ObstacleEdit::Add) {
     if (Status s = obstacleNameProblem(c.name); !s) return s;
   }
-  const Expected<LiveChange> change = applyObstacleChange(document_, *kind, c.name, c.entry);
+  const Expected<LiveChange> change = applyObstacleChange(document, *kind, c.name, c.entry);
   return change ? Status::success() : Status(Error{change.error()});
 }
 
-template <>
-Status SimulationDriver::check(const GraspCommand& c) const {
+Status graspShapeProblem(const GraspCommand& c) {
   if (!std::isfinite(c.radius) || !(c.radius > 0.0)) {
     return Error{"radius must be finite and > 0 m, got " + numberText(c.radius)};
   }
   if (!finite(c.point)) return Error{"point is not finite"};
+  return Status::success();
+}
+
+template <>
+Status SimulationDriver::check(const ObstacleCommand& c) const {
+  if (Status s = needsDocument(); !s) return s;
+  return obstacleCommandProblem(document_, c);
+}
+
+template <>
+Status SimulationDriver::check(const GraspCommand& c) const {
+  if (Status s = graspShapeProblem(c); !s) return s;
   return checkFrame(c.header.frame_id, c.header.stamp);
 }
 
@@ -428,11 +437,15 @@ void SimulationDriver::followObstacleFrames(double time, double endTime) {
     std::optional<Eigen::Isometry3d> start;
     if (last != obstacleFrame_.end()) start = last->second;
     else start = pose(time);
-    std::optional<Eigen::Isometry3d> end = pose(endTime);
     if (!start) {
-      warnings_.push_back("obstacle '" + o.name + "' is not placed yet: " + why);
+      // Which frame, at which time (the step's start): a frame published late, or stamped
+      // behind the node, shows as such.
+      warnings_.push_back("obstacle '" + o.name + "' is not placed yet: its frame '" + o.frame +
+                          "' has no pose at the start of the step, t = " + numberText(time) + " s (ROS time " +
+                          numberText(stampOf(time).toSec()) + " s): " + why);
       continue;
     }
+    std::optional<Eigen::Isometry3d> end = pose(endTime);
     if (!end) {
       warnings_.push_back("obstacle '" + o.name + "' stays where it is: " + why);
       end = start;
@@ -490,12 +503,16 @@ Status obstacleNameProblem(const std::string& name) {
 }
 
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
-                       double realTimeFactor) {
+                       double realTimeFactor, const std::function<CommandCounts(CommandTopic)>& counts) {
   const Simulator& sim = driver.simulator();
   StepStats msg = toMsg(driver.header(), driver.stepIndex(), sim.integrator().name(), sim.settings().dt,
                         report, wallTime, realTimeFactor);
   msg.min_area_ratio = minAreaRatio(sim.model().mesh(), sim.model().rest(), sim.state().x);
-  setCommandStats(msg, [&driver](CommandTopic topic) { return driver.commandCounts(topic); });
+  if (counts) {
+    setCommandStats(msg, counts);
+  } else {
+    setCommandStats(msg, [&driver](CommandTopic topic) { return driver.commandCounts(topic); });
+  }
   return msg;
 }
 

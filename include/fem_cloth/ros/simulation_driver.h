@@ -168,11 +168,19 @@ class SimulationDriver {
 /// Why `name` cannot name an obstacle (it names the topic ~obstacles/<name>/wrench): not a valid
 /// ROS name, or with a '/'.
 Status obstacleNameProblem(const std::string& name);
+/// What is wrong with an obstacle command on `document` (a scene document): an unknown action, a
+/// bad name to add, a change the scene refuses. The ~add/remove/move_obstacle services answer
+/// with it at once; the driver checks the same when the command comes.
+Status obstacleCommandProblem(const YAML::Node& document, const ObstacleCommand& command);
+/// What is wrong with a grasp's point and radius (its frame is the driver's to check): the
+/// ~grasp_nearest service answers with it at once.
+Status graspShapeProblem(const GraspCommand& command);
 
 /// The statistics of the step just taken (wall time and real-time factor as measured by the
-/// caller), with the driver's command counts.
+/// caller), with the command counts `counts` gives (none: the driver's; the node adds its inbox's).
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
-                       double realTimeFactor);
+                       double realTimeFactor,
+                       const std::function<CommandCounts(CommandTopic)>& counts = nullptr);
 /// Sets `msg.commands` (one entry per command topic, in CommandTopic order) and the older
 /// pin_commands and force_commands from `counts`.
 void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts);
