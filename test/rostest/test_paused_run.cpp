@@ -1,5 +1,5 @@
-// A run paused for 3 s (longer than tf_timeout) in the middle: after ~resume every stamp is ROS
-// time again, not 3 s behind it, so a pin following a moving gripper reads the gripper's pose of
+// A run paused for 3 s (longer than tf_timeout) in the middle: after ~resume the stamps run on
+// from ROS time at the resume, not 3 s behind it, so a pin following a moving gripper reads the gripper's pose of
 // now; a pin sent while paused is accepted (checked against the frame as it is now) and takes
 // effect at the first step after the resume; the state the run resumes from is published again
 // with its new stamp (what a recording's replay rebuilds the pause from).
@@ -68,17 +68,17 @@ TEST(PausedRun, StampsStayOnRosTimeAndAPinSentWhilePausedIsTaken) {
   ASSERT_TRUE(call("resume"));
   auto a = applied.waitForAny(10.0);
   ASSERT_TRUE(a) << "the pin sent while paused was not applied (refused?)";
-  // Stamped with the first step after the resume: ROS time then, not 3.8 s before it.
-  EXPECT_LT(std::abs((a->header.stamp - resumed).toSec()), 0.3) << a->header.stamp << " vs " << resumed;
+  // Stamped with the first step after the resume: no earlier than the ~resume call (one origin
+  // would have it 3.8 s before). Lower bounds only: how far behind ROS time a loaded machine
+  // runs is no part of the test.
+  EXPECT_GE(a->header.stamp, resumed) << a->header.stamp << " vs " << resumed;
 
-  // A second of running later: the state's stamp is ROS time, and vertex 0 is where the gripper
-  // is at that time (it follows the frame's pose of now, not of 3.8 s ago: 0.38 m lower).
-  ros::WallDuration(1.0).sleep();
-  auto s = state.waitForNext(10.0);
+  // Later: every stamp runs on from the resume, step x dt, and vertex 0 is where the gripper is
+  // at that stamp (it follows the frame's pose of then, not of 3.8 s before: 0.38 m lower).
+  auto s = state.waitFor([&](const fem_cloth::ClothState& m) { return m.step >= pausedAt + 50; }, 20.0);
   ASSERT_TRUE(s);
-  const ros::Time now = ros::Time::now();
-  EXPECT_LT(std::abs((now - s->header.stamp).toSec()), 0.3) << "stamp " << s->header.stamp << " at ROS time " << now;
-  EXPECT_GT(s->step, pausedAt + 50);
+  EXPECT_GE(s->header.stamp - ros::Duration(0.01 * static_cast<double>(s->step - pausedAt)), resumed - ros::Duration(0.03))
+      << "stamp " << s->header.stamp << " at step " << s->step << ", resumed at " << resumed;
   EXPECT_NEAR(s->positions[0].x, 0.0, 1e-9);
   EXPECT_NEAR(s->positions[0].z, gripperZ(start, s->header.stamp) - 0.1, 1e-6);
 
@@ -90,7 +90,7 @@ TEST(PausedRun, StampsStayOnRosTimeAndAPinSentWhilePausedIsTaken) {
   const auto [step, stamp] = stamps[beforeResume];
   EXPECT_GE(step, pausedAt);
   EXPECT_LE(step, pausedAt + 2);
-  EXPECT_LT(std::abs((stamp - resumed).toSec()), 0.3) << stamp << " vs " << resumed;
+  EXPECT_GE(stamp, resumed) << stamp << " vs " << resumed;
 }
 
 int main(int argc, char** argv) {
