@@ -75,27 +75,28 @@ Status checkTypes(rosbag::View& view, const RunTopics& topics) {
   return Status::success();
 }
 
-// A command message, sent or applied, into its topic's list (a sent one with a zero stamp is
-// stamped with the time it was recorded: when the node took it); the command added, if any.
-const Command* readCommand(const rosbag::MessageInstance& m, const RunTopics& topics,
-                           std::array<std::vector<Command>, kCommandTopics>* sent,
-                           std::array<std::vector<Command>, kCommandTopics>* applied) {
-  const Command* added = nullptr;
+// A command message read, and whether it was sent (NS/<t>) or applied (NS/applied_<t>).
+struct ReadCommand {
+  Command command;
+  bool sent = false;
+};
+
+// A command message, sent or applied (a sent one with a zero stamp is stamped with the time it
+// was recorded: when the node took it); none when the message is no command.
+std::optional<ReadCommand> readCommand(const rosbag::MessageInstance& m, const RunTopics& topics) {
+  std::optional<ReadCommand> read;
   forEachCommandType([&](auto type) {
     using C = typename decltype(type)::type;
     const CommandTopic topic = topicOf<C>();
-    const std::size_t k = static_cast<std::size_t>(topic);
     const bool isSent = m.getTopic() == topics.sent(topic);
     if (!isSent && m.getTopic() != topics.applied(topic)) return;
     auto msg = m.instantiate<C>();
     if (!msg) return;
     C c = *msg;
     if (isSent && c.header.stamp.isZero()) c.header.stamp = m.getTime();
-    std::vector<Command>& list = (isSent ? *sent : *applied)[k];
-    list.push_back(std::move(c));
-    added = &list.back();
+    read = ReadCommand{std::move(c), isSent};
   });
-  return added;
+  return read;
 }
 
 Status checkStamp(const ros::Time& stamp, const ros::Time& begin, const std::string& what) {
@@ -125,13 +126,15 @@ class RunReader {
       if (auto msg = m.instantiate<shape_msgs::Mesh>(); msg && !run_.mesh) run_.mesh = *msg;
     } else if (topic == topics_.state) {
       if (auto msg = m.instantiate<ClothState>()) return addState(*msg, m.getTime(), what);
-    } else if (const Command* c = readCommand(m, topics_, &sent_, &applied_)) {
+    } else if (std::optional<ReadCommand> c = readCommand(m, topics_)) {
       // The node refuses a command stamped beyond what a ROS duration can hold (and records
       // it all the same, as sent): the replay leaves it out as the node did, with a warning,
       // rather than refusing the whole recording for it.
-      if (Status s = checkStamp(headerOf(*c).stamp, run_.begin, what); !s) {
-        dropLast(c);
+      if (Status s = checkStamp(headerOf(c->command).stamp, run_.begin, what); !s) {
         run_.warnings.push_back(s.error() + "; left out, as the node refuses such a command");
+      } else {
+        const std::size_t k = static_cast<std::size_t>(topicOf(c->command));
+        (c->sent ? sent_ : applied_)[k].push_back(std::move(c->command));
       }
       return Status::success();
     } else if (topic == "/tf" || topic == "/tf_static") {
@@ -165,18 +168,6 @@ class RunReader {
   }
 
  private:
-  // Removes the command readCommand just added (the last of its list).
-  void dropLast(const Command* c) {
-    for (auto* lists : {&sent_, &applied_}) {
-      for (std::vector<Command>& list : *lists) {
-        if (!list.empty() && &list.back() == c) {
-          list.pop_back();
-          return;
-        }
-      }
-    }
-  }
-
   Status addState(const ClothState& msg, const ros::Time& time, const std::string& what) {
     FEM_CLOTH_CHECK(checkStamp(msg.header.stamp, run_.begin, what));
     // A node reset (~reset) starts again from step 0: the commands before and after it cannot
@@ -286,6 +277,24 @@ std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt) {
   const double back = static_cast<double>(s.step) * dt;
   if (!(back >= 0.0 && back <= s.stamp.toSec() && back < kMaxRecordingSpan)) return std::nullopt;
   return s.stamp - ros::Duration(back);
+}
+
+std::optional<Timeline> runTimeline(const RecordedRun& run, double dt) {
+  const std::optional<ros::Time> epoch = runEpoch(run, dt);
+  if (!epoch) return std::nullopt;
+  Timeline timeline(*epoch);
+  // Step-0 states are left to runEpoch: a node paused from the start moves its origin until
+  // its first step.
+  for (const RecordedState& s : run.states) {
+    if (s.step == 0) continue;
+    const TimelineSegment& in = timeline.at(s.step);
+    // Where the segment has this state: its start + (step - its step) x dt, to well within the
+    // tolerance (the simulator's time is a sum of steps, the stamps are whole nanoseconds).
+    const double expected = static_cast<double>(s.step - in.step) * dt;
+    if (std::abs(secondsBetween(s.stamp, in.stamp) - expected) <= kSegmentTolerance) continue;
+    if (!timeline.add(s.step, s.stamp)) return std::nullopt;  // steps only increase (readRun)
+  }
+  return timeline;
 }
 
 Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene) {

@@ -68,37 +68,67 @@ double recordedDt(const RecordedRun& run, double replayDt) {
   return replayDt;
 }
 
-// The ROS time of simulation time 0: from the recorded states, else the start of the bag (or 0
-// without one). Every stamp the replay compares with it lies within kMaxRecordingSpan of the
-// start of the recording (readRun), so keeping it there too keeps their differences within what
-// ros::Duration holds.
-Expected<ros::Time> replayEpoch(const RecordedRun* run, double dt) {
-  if (run == nullptr) return ros::Time(0);
-  if (run->states.empty()) return run->begin;
-  const std::optional<ros::Time> epoch = runEpoch(*run, recordedDt(*run, dt));
+// The timeline of the replay: the recorded states' (runTimeline()), else from the start of the
+// bag (or 0 without one). Every stamp the replay compares with it lies within kMaxRecordingSpan
+// of the start of the recording (readRun), so keeping its origin there too keeps their
+// differences within what ros::Duration holds.
+Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) {
+  if (run == nullptr) return Timeline(ros::Time(0));
+  if (run->states.empty()) return Timeline(run->begin);
+  const std::optional<Timeline> timeline = runTimeline(*run, recordedDt(*run, dt));
   const RecordedState& first = run->states.front();
-  if (!epoch || std::abs(secondsBetween(*epoch, run->begin)) > kMaxRecordingSpan) {
+  if (!timeline || std::abs(secondsBetween(timeline->origin(), run->begin)) > kMaxRecordingSpan) {
     return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
                  ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
                  "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
   }
-  return *epoch;
+  return *timeline;
+}
+
+// What a replay takes from its recording once the driver holds the recorded commands.
+struct ReplaySettings {
+  std::map<std::uint64_t, std::string> recorded;  ///< step -> state hash
+  double lastRecorded = 0.0;  ///< s: the last recorded state's step x dt (0: none)
+  double lastCommand = 0.0;   ///< s from the time origin to the last command's stamp
+  bool anyCommand = false;
+  ros::Time origin;     ///< the timeline's: ROS time of simulation time 0
+  ros::Time reference;  ///< the start of the recording (0 without one)
+};
+
+// Submits every recorded command up front (the driver applies each at its stamp), counting them
+// and the rejected ones (rejected live as well) in `report`.
+ReplaySettings feedRecording(const RecordedRun* run, SimulationDriver& driver, double dt, BagRunReport& report) {
+  ReplaySettings settings;
+  settings.origin = driver.timeline().origin();
+  if (run == nullptr) return settings;
+  settings.reference = run->begin;
+  report.exactCommands = run->exactCommands;
+  settings.anyCommand = !run->commands.empty();
+  for (const Command& c : run->commands) {
+    ++report.commands[static_cast<std::size_t>(topicOf(c))];
+    settings.lastCommand = std::max(settings.lastCommand, secondsBetween(headerOf(c).stamp, settings.origin));
+    if (Status s = driver.submit(c); !s) {
+      ++report.rejected;
+      report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
+    }
+  }
+  for (const RecordedState& s : run->states) settings.recorded[s.step] = s.hash;
+  if (!settings.recorded.empty()) settings.lastRecorded = static_cast<double>(settings.recorded.rbegin()->first) * dt;
+  return settings;
 }
 
 // How long the run lasts (s): --duration, else up to the last recorded state, the last command
-// + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from `epoch`, within the
-// recording's span and ros::Time.
-Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene, double lastRecorded,
-                                double lastCommand, bool anyCommand, const ros::Time& epoch,
-                                const ros::Time& reference) {
+// + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from the origin, within
+// the recording's span and ros::Time.
+Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene, const ReplaySettings& replay) {
   double duration = options.duration;
   std::string what = "--duration";
   if (!(duration > 0.0)) {
-    if (lastRecorded > 0.0) {
-      duration = lastRecorded;
+    if (replay.lastRecorded > 0.0) {
+      duration = replay.lastRecorded;
       what = "the last recorded state";
-    } else if (anyCommand) {
-      duration = lastCommand + 1.0;
+    } else if (replay.anyCommand) {
+      duration = replay.lastCommand + 1.0;
       what = "the last command";
     } else {
       duration = scene.duration;
@@ -106,8 +136,8 @@ Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene
     }
   }
   FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
-  const double end = epoch.toSec() + duration;
-  if (!(secondsBetween(epoch, reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
+  const double end = replay.origin.toSec() + duration;
+  if (!(secondsBetween(replay.origin, replay.reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
     return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
                  (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
   }
@@ -127,6 +157,7 @@ class DriverRun : public DrivenSimulation {
  public:
   DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
       : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
+    if (std::optional<Timeline> timeline = runTimeline(run, recordedDt)) driver_.setTimeline(*timeline);
     // A command the driver rejects was rejected live as well (the recording holds the applied
     // stream): skipping it is what the node did.
     for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
@@ -199,35 +230,21 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   }
   const double dt = scene->dt;
   DriverSettings settings;
-  Expected<ros::Time> epoch = replayEpoch(run ? &*run : nullptr, dt);
-  if (!epoch) return Error{epoch.error()};
-  settings.epoch = *epoch;
+  Expected<Timeline> timeline = replayTimeline(run ? &*run : nullptr, dt);
+  if (!timeline) return Error{timeline.error()};
+  settings.epoch = timeline->origin();
   if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
+  driver.setTimeline(*timeline);
   report.integrator = driver.simulator().integrator().name();
 
-  // Every command up front: the driver applies each at its stamp.
-  std::map<std::uint64_t, std::string> recorded;  // step -> hash
-  double lastCommand = 0.0;
-  if (run) {
-    report.exactCommands = run->exactCommands;
-    for (const Command& c : run->commands) {
-      ++report.commands[static_cast<std::size_t>(topicOf(c))];
-      lastCommand = std::max(lastCommand, secondsBetween(headerOf(c).stamp, settings.epoch));
-      if (Status s = driver.submit(c); !s) {
-        ++report.rejected;
-        report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
-      }
-    }
-    for (const RecordedState& s : run->states) recorded[s.step] = s.hash;
-  }
-  Expected<double> duration = replayDuration(
-      options, *scene, recorded.empty() ? 0.0 : static_cast<double>(recorded.rbegin()->first) * dt,
-      lastCommand, run && !run->commands.empty(), settings.epoch, run ? run->begin : ros::Time(0));
+  const ReplaySettings replay = feedRecording(run ? &*run : nullptr, driver, dt, report);
+  const std::map<std::uint64_t, std::string>& recorded = replay.recorded;
+  Expected<double> duration = replayDuration(options, *scene, replay);
   if (!duration) return Error{duration.error()};
   const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(*duration / dt - 1e-9)));
   const std::uint64_t every =

@@ -196,6 +196,7 @@ bool ClothNode::start(std::string* error) {
       }
       startTime_ = *epoch;
       hasStartTime_ = true;
+      replayTimeline_ = runTimeline(*replay, scene->dt);  // its pauses too
     }
   }
   DriverSettings settings;
@@ -387,7 +388,12 @@ void ClothNode::doReset() {
   restartRealTimeFactorWindow();  // a window across the reset measured a negative factor
   tfWait_->clear();
   dueOrigin_ = ros::Time::now().toSec();
-  if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) driver_->setEpoch(ros::Time::now());
+  if (replayTimeline_) {
+    driver_->setTimeline(*replayTimeline_);
+  } else if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) {
+    driver_->setEpoch(ros::Time::now());
+  }
+  segmentToAnnounce_ = false;
   lastReport_ = StepReport();
   publishOutputs(lastReport_, 0.0, true);
   control_->resetDone();
@@ -398,10 +404,29 @@ void ClothNode::restartRealTime() {
   // while we were paused gets the current state first.
   dueOrigin_ = ros::Time::now().toSec() - driver_->simulator().time() / realTimeFactor_;
   restartRealTimeFactorWindow();  // a window across the pause measured the pause as slowness
-  if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
-    driver_->setEpoch(ros::Time::now());
-  }
+  holdOnRosTime();
   publishOutputs(StepReport(), 0.0, true);
+  segmentToAnnounce_ = false;
+}
+
+void ClothNode::holdOnRosTime() {
+  // In fast mode ROS time is the node's own /clock, which a pause stops too; a live replay
+  // follows the recording's segments.
+  if (timeMode_ != TimeMode::RealTime || replayTimeline_) return;
+  if (driver_->stepIndex() == 0) {
+    if (!hasStartTime_) driver_->setEpoch(ros::Time::now());  // ~start_time fixes the origin
+    return;
+  }
+  driver_->startSegment(ros::Time::now());
+  segmentToAnnounce_ = true;
+}
+
+void ClothNode::announceSegment() {
+  // A recording must show where the segment starts (runTimeline(), bag_io.h): the state it starts
+  // from, with its stamp in it, whatever the publish rate.
+  if (!segmentToAnnounce_) return;
+  publishOutputs(StepReport(), 0.0, true);
+  segmentToAnnounce_ = false;
 }
 
 void ClothNode::finishAdvance() {
@@ -412,10 +437,15 @@ void ClothNode::finishAdvance() {
 }
 
 double ClothNode::secondsUntilDue() const {
-  // The step that ends at simulation time t + dt is due at dueOrigin + (t + dt) / factor + lag.
+  // The step that ends at simulation time t + dt is due at dueOrigin + (t + dt) / factor + lag;
+  // in a live replay the origin is that of the recorded segment the step is taken in.
   const double dt = driver_->simulator().settings().dt;
-  return dueOrigin_ + (driver_->simulator().time() + dt) / realTimeFactor_ + stepLag_ -
-         ros::Time::now().toSec();
+  double origin = dueOrigin_;
+  if (replayTimeline_) {
+    const TimelineSegment& s = driver_->timeline().at(driver_->stepIndex());
+    origin = s.stamp.toSec() - (s.step == 0 ? 0.0 : s.time / realTimeFactor_);
+  }
+  return origin + (driver_->simulator().time() + dt) / realTimeFactor_ + stepLag_ - ros::Time::now().toSec();
 }
 
 bool ClothNode::transformsReady() {
@@ -494,9 +524,8 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
     statePub_.publish(toMsg(driver_->header(), sim.state(), sim.dim(), publishVelocities_));
     if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
-      StepStats stats = statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_);
-      setCommandStats(stats, [this](CommandTopic topic) { return commandCounts(topic); });
-      statsPub_.publish(stats);
+      statsPub_.publish(statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_,
+                                     [this](CommandTopic topic) { return commandCounts(topic); }));
     }
     publishPinReactions();
     bool wrenchWanted = false;
@@ -636,6 +665,7 @@ void ClothNode::begin() {
   const ros::Time epoch =
       hasStartTime_ ? startTime_ : (timeMode_ == TimeMode::Fast ? ros::Time(0) : now);
   driver_->setEpoch(epoch);
+  if (replayTimeline_) driver_->setTimeline(*replayTimeline_);
   dueOrigin_ = (hasStartTime_ && timeMode_ == TimeMode::RealTime ? epoch : now).toSec();
   restartRealTimeFactorWindow();
   meshPub_.publish(toMsg(driver_->simulator().model().mesh()));
@@ -661,14 +691,13 @@ void ClothNode::turn() {
   }
   if (b.resumed) restartRealTime();
   if (!b.running && !b.stepWanted) {
-    // Before its first step a node paused from the start keeps its time origin at ROS time now
-    // (as ~resume sets it then), so that a pin or grasp in a moving frame is checked against
-    // the frame as it is now, not as it was when the node started (refused as 'unknown at the
-    // time it is needed' after a pause longer than tf_timeout). Not once a step is wanted: the
-    // step's times must not move while it waits for their transforms.
-    if (!hasStartTime_ && timeMode_ == TimeMode::RealTime && driver_->stepIndex() == 0) {
-      driver_->setEpoch(ros::Time::now());
-    }
+    // While paused the state's simulation time is held at ROS time now (a node paused from the
+    // start: its time origin; later: a new segment of the timeline, as ~resume starts one), so
+    // that a pin or grasp in a moving frame is checked against the frame as it is now, not as it
+    // was when the pause began (refused as 'unknown at the time it is needed' after a pause
+    // longer than tf_timeout). Not once a step is wanted: the step's times must not move while it
+    // waits for their transforms.
+    holdOnRosTime();
     publishDiagnostics(false);
     control_->wait(0.05);
     return;
@@ -689,6 +718,7 @@ void ClothNode::turn() {
   }
   const double dt = driver_->simulator().settings().dt;
   if (!control_->beginStep(driver_->simulator().time() + dt)) return;
+  announceSegment();
   stepOnce();
   control_->endStep(driver_->stepIndex(), driver_->simulator().time(),
                     lastReport_.ok ? std::string() : lastReport_.error);

@@ -54,6 +54,11 @@ std::vector<const Command*> CommandQueue::due(double time) const {
   return out;
 }
 
+void CommandQueue::retime(const std::function<double(const Command&, double)>& timeOf) {
+  for (Pending& p : pending_) p.time = timeOf(p.command, p.time);
+  std::stable_sort(pending_.begin(), pending_.end(), [](const Pending& a, const Pending& b) { return a.time < b.time; });
+}
+
 std::array<std::uint64_t, kCommandTopics> CommandQueue::clear() {
   const std::array<std::uint64_t, kCommandTopics> dropped = perTopic_;
   pending_.clear();

@@ -3,9 +3,9 @@
 #include <boost/function.hpp>
 
 #include <chrono>
-#include <cmath>
 
 #include "fem_cloth/io/live_change.h"
+#include "fem_cloth/ros/simulation_driver.h"
 
 namespace fem_cloth {
 
@@ -52,37 +52,33 @@ bool LiveServices::onSet(Set::Request& req, Set::Response& res) {
 }
 
 bool LiveServices::onObstacle(std::uint8_t action, ObstacleChange::Request& req, ObstacleChange::Response& res) {
-  const ObstacleEdit kind = action == ObstacleCommand::ADD      ? ObstacleEdit::Add
-                              : action == ObstacleCommand::REMOVE ? ObstacleEdit::Remove
-                                                                  : ObstacleEdit::Move;
-  const Expected<LiveChange> change = applyObstacleChange(document(), kind, req.name, req.entry);
-  if (!change) {
-    inbox_.refuse(topicOf<ObstacleCommand>());
-    res.success = false;
-    res.message = "refused, nothing changed: " + change.error();
-    return true;
-  }
   ObstacleCommand c;
   c.action = action;
   c.name = req.name;
   c.entry = req.entry;
+  // The driver's own check, on the document as the applied changes have left it.
+  if (Status s = obstacleCommandProblem(document(), c); !s) {
+    inbox_.refuse(topicOf<ObstacleCommand>());
+    res.success = false;
+    res.message = "refused, nothing changed: " + s.error();
+    return true;
+  }
   res.success = queue(c, &res.message);
   if (res.success) res.message = "applies before the next step (published on ~applied_obstacle)";
   return true;
 }
 
 bool LiveServices::onGraspNearest(GraspNearest::Request& req, GraspNearest::Response& res) {
-  const bool finitePoint = std::isfinite(req.point.x) && std::isfinite(req.point.y) && std::isfinite(req.point.z);
-  if (!finitePoint || !std::isfinite(req.radius) || !(req.radius > 0.0)) {
-    inbox_.refuse(topicOf<GraspCommand>());
-    res.success = false;
-    res.message = !finitePoint ? "point is not finite" : "radius must be finite and > 0 m";
-    return true;
-  }
   GraspCommand c;
   c.header.frame_id = req.frame_id;
   c.point = req.point;
   c.radius = req.radius;
+  if (Status s = graspShapeProblem(c); !s) {
+    inbox_.refuse(topicOf<GraspCommand>());
+    res.success = false;
+    res.message = s.error();
+    return true;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     c.header.seq = nextGrasp_++;

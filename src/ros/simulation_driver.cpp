@@ -46,21 +46,43 @@ SimulationDriver::SimulationDriver(Simulation simulation, DriverSettings setting
                                    YAML::Node document)
     : simulation_(std::move(simulation)),
       settings_(std::move(settings)),
+      timeline_(settings_.epoch),
       document_(std::move(document)),
       frames_(tf, settings_.frame, settings_.tfTimeout),
       pending_(settings_.maxPendingCommands),
       pinSet_(settings_.maxPinJump) {}
 
 ros::Time SimulationDriver::stampOf(double simulationTime) const {
-  // epoch + ros::Duration(simulationTime), bit for bit, without rostime's exception: step() stops
-  // before a state's stamp would leave the range, so the fallback is never a state's stamp.
-  const Expected<ros::Time> t = checkedTimeAfter(settings_.epoch, simulationTime, "simulation time");
+  // In the segment of the current step (the step being taken starts and ends in it); the first
+  // segment's is epoch + ros::Duration(simulationTime), bit for bit, without rostime's exception:
+  // step() stops before a state's stamp would leave the range, so the fallback is never a
+  // state's stamp.
+  const Expected<ros::Time> t = timeline_.stampOf(stepIndex(), simulationTime, "simulation time");
   return t ? *t : ros::TIME_MAX;
 }
 
 Expected<double> SimulationDriver::commandTime(const ros::Time& stamp) const {
   if (stamp.isZero()) return -1.0;
-  return checkedSecondsSince(stamp, settings_.epoch, "header.stamp");
+  return timeline_.timeOf(stamp, simulator().settings().dt, "header.stamp");
+}
+
+void SimulationDriver::setTimeline(Timeline timeline) {
+  timeline_ = std::move(timeline);
+  settings_.epoch = timeline_.origin();
+  timeline_.reach(stepIndex(), simulator().time());
+  retimePending();
+}
+
+void SimulationDriver::startSegment(const ros::Time& stamp) {
+  timeline_.start(stepIndex(), simulator().time(), stamp);
+  retimePending();
+}
+
+void SimulationDriver::retimePending() {
+  pending_.retime([this](const Command& c, double before) {
+    const Expected<double> t = commandTime(headerOf(c).stamp);
+    return t ? *t : before;  // checked against the timeline when it came: cannot fail
+  });
 }
 
 CommandCounts SimulationDriver::commandCounts(CommandTopic topic) const {
@@ -224,24 +246,33 @@ Expected<ObstacleEdit> obstacleChange(const ObstacleCommand& c) {
 
 }  // namespace
 
-template <>
-Status SimulationDriver::check(const ObstacleCommand& c) const {
-  if (Status s = needsDocument(); !s) return s;
+Status obstacleCommandProblem(const YAML::Node& document, const ObstacleCommand& c) {
   const Expected<ObstacleEdit> kind = obstacleChange(c);
   if (!kind) return Error{kind.error()};
   if (*kind == ObstacleEdit::Add) {
     if (Status s = obstacleNameProblem(c.name); !s) return s;
   }
-  const Expected<LiveChange> change = applyObstacleChange(document_, *kind, c.name, c.entry);
+  const Expected<LiveChange> change = applyObstacleChange(document, *kind, c.name, c.entry);
   return change ? Status::success() : Status(Error{change.error()});
 }
 
-template <>
-Status SimulationDriver::check(const GraspCommand& c) const {
+Status graspShapeProblem(const GraspCommand& c) {
   if (!std::isfinite(c.radius) || !(c.radius > 0.0)) {
     return Error{"radius must be finite and > 0 m, got " + numberText(c.radius)};
   }
   if (!finite(c.point)) return Error{"point is not finite"};
+  return Status::success();
+}
+
+template <>
+Status SimulationDriver::check(const ObstacleCommand& c) const {
+  if (Status s = needsDocument(); !s) return s;
+  return obstacleCommandProblem(document_, c);
+}
+
+template <>
+Status SimulationDriver::check(const GraspCommand& c) const {
+  if (Status s = graspShapeProblem(c); !s) return s;
   return checkFrame(c.header.frame_id, c.header.stamp);
 }
 
@@ -364,7 +395,7 @@ StepReport SimulationDriver::step() {
   const double t = simulator().time();
   const double dt = simulator().settings().dt;
   // Every state is stamped with its ROS time: a run stops before that would leave the range.
-  if (Expected<ros::Time> end = checkedTimeAfter(settings_.epoch, t + dt, "the end of the step at simulation time");
+  if (Expected<ros::Time> end = timeline_.stampOf(stepIndex(), t + dt, "the end of the step at simulation time");
       !end) {
     StepReport refused;
     refused.ok = false;
@@ -382,7 +413,10 @@ StepReport SimulationDriver::step() {
     warnings_.push_back(std::move(w));
   }
   followObstacleFrames(t, t + dt);
-  return sim.step();
+  StepReport report = sim.step();
+  // A segment rebuilt from a recording starts here: its simulation time is known now.
+  if (report.ok && timeline_.reach(stepIndex(), simulator().time())) retimePending();
+  return report;
 }
 
 void SimulationDriver::followObstacleFrames(double time, double endTime) {
@@ -403,11 +437,15 @@ void SimulationDriver::followObstacleFrames(double time, double endTime) {
     std::optional<Eigen::Isometry3d> start;
     if (last != obstacleFrame_.end()) start = last->second;
     else start = pose(time);
-    std::optional<Eigen::Isometry3d> end = pose(endTime);
     if (!start) {
-      warnings_.push_back("obstacle '" + o.name + "' is not placed yet: " + why);
+      // Which frame, at which time (the step's start): a frame published late, or stamped
+      // behind the node, shows as such.
+      warnings_.push_back("obstacle '" + o.name + "' is not placed yet: its frame '" + o.frame +
+                          "' has no pose at the start of the step, t = " + numberText(time) + " s (ROS time " +
+                          numberText(stampOf(time).toSec()) + " s): " + why);
       continue;
     }
+    std::optional<Eigen::Isometry3d> end = pose(endTime);
     if (!end) {
       warnings_.push_back("obstacle '" + o.name + "' stays where it is: " + why);
       end = start;
@@ -427,6 +465,7 @@ void SimulationDriver::reset() {
   pinSet_.clear();
   obstacleFrame_.clear();
   applied_.clear();
+  timeline_ = Timeline(timeline_.origin());
 }
 
 std::vector<Command> SimulationDriver::takeApplied() {
@@ -464,12 +503,16 @@ Status obstacleNameProblem(const std::string& name) {
 }
 
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
-                       double realTimeFactor) {
+                       double realTimeFactor, const std::function<CommandCounts(CommandTopic)>& counts) {
   const Simulator& sim = driver.simulator();
   StepStats msg = toMsg(driver.header(), driver.stepIndex(), sim.integrator().name(), sim.settings().dt,
                         report, wallTime, realTimeFactor);
   msg.min_area_ratio = minAreaRatio(sim.model().mesh(), sim.model().rest(), sim.state().x);
-  setCommandStats(msg, [&driver](CommandTopic topic) { return driver.commandCounts(topic); });
+  if (counts) {
+    setCommandStats(msg, counts);
+  } else {
+    setCommandStats(msg, [&driver](CommandTopic topic) { return driver.commandCounts(topic); });
+  }
   return msg;
 }
 

@@ -142,14 +142,14 @@ class GraspScript {
                        << latest_->positions.size() << " vertices, not the mesh's " << meshVertices);
       return 3;
     }
-    // ROS time of simulation time 0, from a state's stamp and its step index.
-    t0_ = latest_->header.stamp - ros::Duration(latest_->step * dt);
     ROS_INFO_STREAM("fem_cloth_grasp_demo: grasping vertices " << p_.grasp[0] << " and " << p_.grasp[1]
                     << " at t = " << p_.start << " s, lifting " << p_.lift << " m over " << p_.duration << " s");
     ros::Rate rate(100.0);
     while (ros::ok()) {
       ros::spinOnce();
-      const double t = (latest_->header.stamp - t0_).toSec();
+      // The state's simulation time: its step x dt, not its stamp less the first one's, which a
+      // pause of the node moves on (a new segment of its timeline, docs/node.md, Time).
+      const double t = static_cast<double>(latest_->step) * dt;
       if (!grasped_ && t >= p_.start - 0.2) {
         if (!hasGraspVertices()) {
           ROS_FATAL("fem_cloth_grasp_demo: the cloth's state no longer has the grasp vertices");
@@ -249,7 +249,7 @@ class GraspScript {
   fem_cloth::PinForces::ConstPtr pins_;
   ros::Subscriber stateSub_, pinSub_;
   tf2_ros::TransformBroadcaster broadcaster_;
-  ros::Time t0_, lastBroadcast_;
+  ros::Time lastBroadcast_;
   Vec origin_, move_;
   bool grasped_ = false, released_ = false;
 };

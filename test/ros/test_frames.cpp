@@ -349,3 +349,29 @@ TEST(Commands, AStepWhoseEndIsNoRosTimeIsRefusedAndLeavesTheState) {
   EXPECT_EQ(driver.stepIndex(), 0u);
   EXPECT_EQ(driver.now(), settings.epoch);
 }
+
+// An obstacle that follows a frame tf does not know yet says which frame and which time it
+// waits for (the step's start, as simulation time and ROS time) and why; once the frame comes,
+// it is placed there.
+TEST(Obstacles, OneNotPlacedYetNamesItsFrameAndTheTime) {
+  const std::string scene = std::string(kScene) +
+                            "obstacles:\n  - {name: ball, type: sphere, center: [0.0, 0.0, 0.0], radius: 0.05, frame: hand}\n";
+  tf2::BufferCore tf(ros::Duration(100.0));
+  SimulationDriver driver(std::move(buildSimulation(*parseScene(YAML::Load(scene))).value()), defaultSettings(), &tf);
+  ASSERT_TRUE(driver.step().ok);
+  ASSERT_TRUE(driver.step().ok);
+  std::vector<std::string> warnings = driver.takeWarnings();
+  ASSERT_EQ(warnings.size(), 2u);
+  // The second step starts at t = 0.01 s, ROS time 1000.01 s (kEpoch 1000 s).
+  EXPECT_EQ(warnings[1].rfind("obstacle 'ball' is not placed yet: its frame 'hand' has no pose at the start "
+                              "of the step, t = 0.01 s (ROS time 1000.01 s): ", 0), 0u) << warnings[1];
+  EXPECT_NE(warnings[1].find("hand"), std::string::npos);
+  geometry_msgs::TransformStamped hand = gripperAt(0.0);
+  hand.child_frame_id = "hand";
+  for (int k = 0; k <= 10; ++k) {
+    hand.header.stamp = kEpoch + ros::Duration(0.01 * k);
+    tf.setTransform(hand, "test");
+  }
+  ASSERT_TRUE(driver.step().ok);
+  for (const std::string& w : driver.takeWarnings()) EXPECT_EQ(w.find("not placed yet"), std::string::npos) << w;
+}

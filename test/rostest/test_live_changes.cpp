@@ -73,6 +73,14 @@ TEST(LiveChanges, AddedObstacleShowsAndHasItsWrenchTopic) {
   ASSERT_TRUE(ros::service::call(topic("add_obstacle"), again));
   EXPECT_FALSE(again.response.success);
   EXPECT_NE(again.response.message.find("'ball' exists already"), std::string::npos) << again.response.message;
+  // A name that cannot name its wrench topic is refused by the service itself, as the node would
+  // refuse it later (the service and the node share one check).
+  fem_cloth::ObstacleChange badName = add;
+  badName.request.name = "two/balls";
+  ASSERT_TRUE(ros::service::call(topic("add_obstacle"), badName));
+  EXPECT_FALSE(badName.response.success);
+  EXPECT_NE(badName.response.message.find("refused, nothing changed: obstacle 'two/balls': its name must be a valid "
+                                          "ROS name without '/'"), std::string::npos) << badName.response.message;
 
   // Moved: its marker is at the new centre. Removed: no sphere is left.
   fem_cloth::ObstacleChange move;

@@ -14,15 +14,30 @@ TEST(LiveReplay, ReproducesTheRecordedStates) {
   ros::NodeHandle pnh("~");
   std::string fixture;
   ASSERT_TRUE(pnh.getParam("fixture", fixture));
+  // A fixture recorded across a pause (paused_replay.test): stamps that jump ahead of the steps.
+  double minPause = 0.0, dt = 0.01;
+  pnh.getParam("min_pause", minPause);
+  pnh.getParam("dt", dt);
   std::map<std::uint64_t, std::string> recorded;
+  double longestPause = 0.0;
   {
     rosbag::Bag bag(fixture);
+    fem_cloth::ClothState::ConstPtr before;
     for (const auto& m : rosbag::View(bag, rosbag::TopicQuery(topic("state")))) {
       auto s = m.instantiate<fem_cloth::ClothState>();
       recorded[s->step] = s->state_hash;
+      if (before && before->step > 0) {
+        const double ahead = (s->header.stamp - before->header.stamp).toSec() -
+                             static_cast<double>(s->step - before->step) * dt;
+        longestPause = std::max(longestPause, ahead);
+      }
+      before = s;
     }
   }
   ASSERT_GT(recorded.size(), 50u);
+  if (minPause > 0.0) {
+    EXPECT_GE(longestPause, minPause) << "the fixture holds no pause that long";
+  }
   const std::uint64_t last = recorded.rbegin()->first;
 
   std::map<std::uint64_t, std::string> replayed;

@@ -42,9 +42,11 @@ ProgramResult bagdiff(const std::vector<std::string>& args) {
 
 // Writes states of `n` vertices on a line moving up at 0.5 m/s, at the steps 0, every, 2 every,
 // ... up to `last` (dt = 0.01 s), shifted up by `offset` (m); with `resetAt` > 0, the node is
-// reset after that step and the states start again from step 0 (bag time going on).
+// reset after that step and the states start again from step 0 (bag time going on); with
+// `pauseAt` > 0, the node is paused there for `pause` s: the state of that step is published
+// again with its new stamp, and every later stamp is `pause` s later (docs/node.md, Time).
 void writeLinearMotion(const std::string& path, int n, int every, int last, double offset,
-                       int resetAt = 0) {
+                       int resetAt = 0, int pauseAt = 0, double pause = 0.0) {
   rosbag::Bag bag(path, rosbag::bagmode::Write);
   std_msgs::String scene;
   scene.data = "integrator: {dt: 0.01}\n";
@@ -56,10 +58,13 @@ void writeLinearMotion(const std::string& path, int n, int every, int last, doub
     steps.erase(std::upper_bound(steps.begin(), steps.end(), resetAt), steps.end());
     for (int step = 0; step <= last; step += every) steps.push_back(step);
   }
+  if (pauseAt > 0) steps.insert(std::upper_bound(steps.begin(), steps.end(), pauseAt), pauseAt);
   ros::Time received = epoch;
+  bool paused = false;
   for (int step : steps) {
     fem_cloth::ClothState s;
-    s.header.stamp = epoch + ros::Duration(0.01 * step);
+    s.header.stamp = epoch + ros::Duration(0.01 * step + (paused ? pause : 0.0));
+    paused = paused || (pauseAt > 0 && step == pauseAt);
     s.step = static_cast<std::uint64_t>(step);
     s.positions.resize(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) {
@@ -150,6 +155,20 @@ TEST(Bagdiff, IdenticalBagsAndPlot) {
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(summaryOf(r).find(": identical"), std::string::npos) << r.out;
   EXPECT_GT(std::filesystem::file_size(png), 1000u);
+}
+
+// States are paired by step x dt, not by stamp: a run paused for 3 s in the middle (its stamps
+// 3 s later from there on) is the same run as one never paused.
+TEST(Bagdiff, PairsStatesByStepNotByStampAcrossAPause) {
+  const std::string paused = scratch().path("paused.bag"), straight = scratch().path("straight.bag");
+  writeLinearMotion(paused, 4, 1, 20, 0.0, 0, 10, 3.0);
+  writeLinearMotion(straight, 4, 1, 20, 0.0);
+  const ProgramResult r = bagdiff({paused, straight});
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  const std::string s = summaryOf(r);
+  // Steps 0 to 20 (step 10 twice in the paused bag counts once), none interpolated.
+  EXPECT_NE(s.find("21 states compared (0 interpolated)"), std::string::npos) << s;
+  EXPECT_NE(s.find(": identical"), std::string::npos) << s;
 }
 
 TEST(Bagdiff, BadInputIsStatus2WithAReason) {

@@ -22,6 +22,7 @@
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/mesh.h"
 #include "fem_cloth/ros/command_queue.h"
+#include "fem_cloth/ros/timeline.h"
 
 namespace fem_cloth {
 
@@ -76,6 +77,14 @@ Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node
 /// The ROS time of simulation time 0 of a recorded run (from its states and the step size); none
 /// without states, or when the first state's step x dt does not fit before its stamp.
 std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt);
+
+/// The timeline (timeline.h) of a recorded run: from runEpoch() on, a new segment wherever a
+/// state's stamp leaves the one before by more than kSegmentTolerance (a pause); the node
+/// publishes the state a segment starts from with its new stamp before stepping on. None when
+/// runEpoch() has none.
+std::optional<Timeline> runTimeline(const RecordedRun& run, double dt);
+/// s: stamps of one segment fit it to the nanosecond; a pause is at least a service call long.
+constexpr double kSegmentTolerance = 1e-6;
 
 /// Checks that a mesh stored in a bag is the scene's mesh (same triangles, same rest positions).
 Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene);

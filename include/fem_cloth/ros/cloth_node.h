@@ -20,8 +20,9 @@
 //   step_lag          double  s the node stays behind ROS time in real_time mode, so that the
 //                             commands and transforms for a step have arrived when it is taken:
 //                             what makes a live replay reproduce a recording (0)
-//   replay_bag        string  a recorded run: its scene (unless one is given) and its time
-//                             origin (start_time) are used, for replaying it live
+//   replay_bag        string  a recorded run: its scene (unless one is given) and its timeline
+//                             (start_time and the segments its pauses began, timeline.h) are
+//                             used, for replaying it live
 //   max_pin_jump      double  m: a pin target farther than this from its vertex is refused (1.0)
 //   max_pending_commands int  commands that may wait to be checked, and checked ones that may
 //                             wait for their stamp; more are refused (10000)
@@ -40,6 +41,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "fem_cloth/Advance.h"
@@ -94,6 +96,10 @@ class ClothNode {
   /// ~reset, ~resume and the end of an ~advance, as the run loop carries them out.
   void doReset();
   void restartRealTime();
+  /// Paused (and on ~resume): the current state is held at ROS time now (timeline.h).
+  void holdOnRosTime();
+  /// Before the first step of a new segment: its first state, with its new stamp.
+  void announceSegment();
   void waitForRosTime();
   void finishAdvance();
   /// Seconds until the next step is due in real_time mode (<= 0: due).
@@ -146,6 +152,7 @@ class ClothNode {
   ros::Time startTime_;  // exact: a time origin from a bag must not pass through a double
   double stepLag_ = 0.0;
   std::string replayBag_;
+  std::optional<Timeline> replayTimeline_;  // the recorded run's, replayed live
   double maxPinJump_ = 1.0;
   int maxPendingCommands_ = 10000, commandQueueSize_ = 1000;
 
@@ -154,6 +161,7 @@ class ClothNode {
   // ROS time (s) at which simulation time 0 is due in real_time mode. A double, not a ros::Time:
   // after a pause it may lie before ROS time 0 (simulation time ahead of a sim clock).
   double dueOrigin_ = 0.0;
+  bool segmentToAnnounce_ = false;
   ros::WallTime rtfWindowStart_;
   double rtfWindowSimStart_ = 0.0, realTimeFactorMeasured_ = 0.0;
   double stepWallTime_ = 0.0;

@@ -9,6 +9,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <utility>
@@ -111,6 +112,9 @@ class CommandQueue {
   std::vector<const Command*> due(double time) const;
   /// Drops every command; returns how many of each topic were dropped.
   std::array<std::uint64_t, kCommandTopics> clear();
+  /// Times every command anew with timeOf(command, its time now), keeping the order of equal
+  /// times: the mapping of stamps to simulation times changed (a new segment, timeline.h).
+  void retime(const std::function<double(const Command&, double)>& timeOf);
 
   std::size_t size() const { return pending_.size(); }
   std::uint64_t size(CommandTopic topic) const { return perTopic_[static_cast<std::size_t>(topic)]; }

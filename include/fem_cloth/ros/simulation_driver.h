@@ -5,10 +5,11 @@
 // bag re-simulation feeds it from a bag. Sharing it is what makes a live run and its offline
 // replay apply every command at the same step.
 //
-// Time: simulation time t (s, from 0) maps to ROS time epoch + t. A command takes effect before
-// the first step that starts at or after its stamp (zero stamp: before the next step). Every
-// output message is stamped with the simulation time of the state it carries. Stamps are range
-// checked (time_checks.h): a stamp no ROS duration can relate to the epoch is refused by name.
+// Time: simulation time t (s, from 0) maps to ROS time through a Timeline (timeline.h): epoch + t
+// until a pause starts a new segment. A command takes effect before the first step that starts at
+// or after the simulation time its stamp stands for (zero stamp: before the next step). Every
+// output message is stamped with the ROS time of the state it carries. Stamps are range checked
+// (time_checks.h): a stamp no ROS duration can relate to the timeline is refused by name.
 #pragma once
 
 #include <ros/time.h>
@@ -29,12 +30,13 @@
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/conversions.h"
 #include "fem_cloth/ros/frame_resolver.h"
+#include "fem_cloth/ros/timeline.h"
 
 namespace fem_cloth {
 
 struct DriverSettings {
   std::string frame = "world";  ///< the simulation frame
-  ros::Time epoch;              ///< ROS time of simulation time 0
+  ros::Time epoch;              ///< ROS time of simulation time 0 (the timeline's first segment)
   /// A frame whose newest transform is older than this (s, in ROS time) is stale: commands
   /// referring to it are rejected, and the pins that follow it stop following and stay put.
   double tfTimeout = 1.0;
@@ -64,7 +66,14 @@ class SimulationDriver {
   ros::Time now() const { return stampOf(simulator().time()); }
   /// A header stamped now, in the simulation frame: what every output message carries.
   std_msgs::Header header() const { return fem_cloth::header(now(), settings_.frame); }
-  void setEpoch(const ros::Time& epoch) { settings_.epoch = epoch; }
+  /// One segment from `epoch` on (before the first step, or after reset()).
+  void setEpoch(const ros::Time& epoch) { setTimeline(Timeline(epoch)); }
+  const Timeline& timeline() const { return timeline_; }
+  /// A whole timeline, as rebuilt from a recording (runTimeline(), bag_io.h).
+  void setTimeline(Timeline timeline);
+  /// A new segment from the current state on at ROS time `stamp` (Timeline::start()): after a
+  /// pause. Pending commands are timed anew.
+  void startSegment(const ros::Time& stamp);
 
   /// Validates a command against the mesh, the tf buffer and itself, and queues it. A command
   /// is rejected whole; the message names the problem.
@@ -91,7 +100,7 @@ class SimulationDriver {
   /// end would map to no ROS time.
   StepReport step();
   /// Back to the initial state; pending commands (counted as discarded) and frame-following pins
-  /// are dropped.
+  /// are dropped, and the timeline keeps its first segment only.
   void reset();
   /// Problems met while stepping (a frame no longer available, a command that could not be
   /// applied), since the last call.
@@ -120,7 +129,7 @@ class SimulationDriver {
 
  private:
   /// The simulation time a stamp stands for (-1 for a zero stamp: the next step), or an error
-  /// naming header.stamp when no ROS duration relates it to the epoch.
+  /// naming header.stamp when no ROS duration relates it to the timeline.
   Expected<double> commandTime(const ros::Time& stamp) const;
   Status checkFrame(const std::string& frame, const ros::Time& stamp) const;
   // Per command type (simulation_driver.cpp): validation when submitted, the effect when due,
@@ -138,11 +147,14 @@ class SimulationDriver {
   Status changeScene(Expected<LiveChange> change);
   /// The document to change, or an error when the driver has none.
   Status needsDocument() const;
+  /// Pending commands timed anew after the timeline changed.
+  void retimePending();
   /// Poses of the frames obstacles follow at the start and end of the step from `time`.
   void followObstacleFrames(double time, double endTime);
 
   Simulation simulation_;
   DriverSettings settings_;
+  Timeline timeline_;
   YAML::Node document_;
   FrameResolver frames_;
   CommandQueue pending_;
@@ -156,11 +168,19 @@ class SimulationDriver {
 /// Why `name` cannot name an obstacle (it names the topic ~obstacles/<name>/wrench): not a valid
 /// ROS name, or with a '/'.
 Status obstacleNameProblem(const std::string& name);
+/// What is wrong with an obstacle command on `document` (a scene document): an unknown action, a
+/// bad name to add, a change the scene refuses. The ~add/remove/move_obstacle services answer
+/// with it at once; the driver checks the same when the command comes.
+Status obstacleCommandProblem(const YAML::Node& document, const ObstacleCommand& command);
+/// What is wrong with a grasp's point and radius (its frame is the driver's to check): the
+/// ~grasp_nearest service answers with it at once.
+Status graspShapeProblem(const GraspCommand& command);
 
 /// The statistics of the step just taken (wall time and real-time factor as measured by the
-/// caller), with the driver's command counts.
+/// caller), with the command counts `counts` gives (none: the driver's; the node adds its inbox's).
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
-                       double realTimeFactor);
+                       double realTimeFactor,
+                       const std::function<CommandCounts(CommandTopic)>& counts = nullptr);
 /// Sets `msg.commands` (one entry per command topic, in CommandTopic order) and the older
 /// pin_commands and force_commands from `counts`.
 void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts);
