@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/core/integrators/registry.h"
+
 
 namespace fem_cloth {
 
@@ -397,6 +400,40 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
   report.residual = report.unbalanced.largest;
   report.dtUsed = h;
   return report;
+}
+
+IntegratorEntry projectiveDynamicsEntry() {
+  IntegratorEntry e;
+  e.name = "projective_dynamics";
+  e.summary = "local/global iterations on a prefactored system (Bouaziz et al. 2014)";
+  // Every energy term must have the form w/2 |A x - p(x)|^2 with a constant A (Bouaziz et al.
+  // 2014, sec. 3): the ARAP membrane and quadratic bending on cloth in 3D. Its constant system
+  // has no place for a barrier whose Hessian changes with the contacts (and a projection after
+  // the global step would undo the convergence it is chosen for), nor for stiffness damping.
+  e.supports.materials = {"arap"};
+  e.supports.bendingModels = {"quadratic"};
+  e.supports.planar = false;
+  e.supports.obstacles = false;
+  e.supports.stiffnessDamping = false;
+  e.keys = {"iterations", "chebyshev_rho"};
+  e.read = [](const SettingsReader& r, Scene& s) {
+    FEM_CLOTH_CHECK(r.integer("iterations", s.iterations));
+    return r.number("chebyshev_rho", s.chebyshevRho);
+  };
+  e.check = [](const Scene& s) -> Status {
+    FEM_CLOTH_CHECK(countInRange(s.iterations, 1, 100'000, "integrator.iterations"));
+    if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
+      return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(s.chebyshevRho)};
+    }
+    return Status::success();
+  };
+  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+    ProjectiveDynamicsSettings settings;
+    settings.iterations = s.iterations;
+    settings.chebyshevRho = s.chebyshevRho;
+    return std::make_unique<ProjectiveDynamics>(settings);
+  };
+  return e;
 }
 
 }  // namespace fem_cloth

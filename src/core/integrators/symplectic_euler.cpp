@@ -6,6 +6,8 @@
 
 #include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/core/integrators/registry.h"
 
 namespace fem_cloth {
 
@@ -205,6 +207,32 @@ double SymplecticEuler::energyTolerance() const {
   // re-estimates the stable step.
   const double s = std::min(stepRatio_, 0.9);
   return std::max(kEnergyTolerance, 2.0 * s / (1.0 - s));
+}
+
+IntegratorEntry symplecticEulerEntry() {
+  IntegratorEntry e;
+  e.name = "symplectic_euler";
+  e.summary = "explicit; substeps itself below its CFL bound (cheap steps, many of them when stiff)";
+  // Obstacles by projection after each substep; self-contact needs the implicit barrier.
+  e.supports.selfContact = false;
+  e.keys = {"auto_substep", "cfl_safety"};
+  e.read = [](const SettingsReader& r, Scene& s) {
+    FEM_CLOTH_CHECK(r.boolean("auto_substep", s.autoSubstep));
+    return r.number("cfl_safety", s.cflSafety);
+  };
+  e.check = [](const Scene& s) -> Status {
+    if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
+      return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(s.cflSafety)};
+    }
+    return Status::success();
+  };
+  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+    SymplecticEulerSettings settings;
+    settings.autoSubstep = s.autoSubstep;
+    settings.cflSafety = s.cflSafety;
+    return std::make_unique<SymplecticEuler>(settings);
+  };
+  return e;
 }
 
 }  // namespace fem_cloth

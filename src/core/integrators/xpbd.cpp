@@ -6,6 +6,8 @@
 #include <limits>
 
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/core/integrators/registry.h"
 
 namespace fem_cloth {
 
@@ -335,6 +337,25 @@ void Xpbd::finishContactSubstep(ContactModel& contact, VectorX& x, double h, dou
   report.minContactDistance = stats.minDistance;
   report.contactWork += stats.work;
   report.contactChecks += contact.checks() - contactChecksBefore_;
+}
+
+IntegratorEntry xpbdEntry() {
+  IntegratorEntry e;
+  e.name = "xpbd";
+  e.summary = "extended position-based dynamics on the FEM energy (Gauss-Seidel over elements)";
+  // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge bending
+  // element reads 12 vertices and has no constraint form.
+  e.supports.bendingModels = {"quadratic", "dihedral"};
+  e.supports.selfContact = false;  // obstacles by projection after every sweep
+  e.keys = {"iterations"};
+  e.read = [](const SettingsReader& r, Scene& s) { return r.integer("iterations", s.iterations); };
+  e.check = [](const Scene& s) { return countInRange(s.iterations, 1, 100'000, "integrator.iterations"); };
+  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+    XpbdSettings settings;
+    settings.iterations = s.iterations;
+    return std::make_unique<Xpbd>(settings);
+  };
+  return e;
 }
 
 }  // namespace fem_cloth
