@@ -605,8 +605,10 @@ Expected<std::unique_ptr<ContactModel>> makeContact(const Scene& scene, const Mo
 }
 }  // namespace
 
-Expected<Simulation> buildSimulation(const Scene& scene) {
-  if (Status s = validateScene(scene); !s) return Error{s.error()};
+namespace {
+
+// The scene's mesh, built and checked (mesh warnings into `warnings`).
+Expected<std::shared_ptr<const Mesh>> checkedMesh(const Scene& scene, std::vector<std::string>& warnings) {
   Expected<Mesh> built = buildMesh(scene);
   if (!built) return Error{(scene.meshType == "obj" ? "mesh.file: " : "mesh: ") + built.error()};
   const MeshValidation check = validateMesh(*built, scene.minTriangleQuality);
@@ -614,20 +616,15 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   if (scene.meshType != "grid") {
     if (Status st = checkMeshExtent(*built); !st) return Error{"mesh: " + st.error()};
   }
-  auto mesh = std::make_shared<const Mesh>(std::move(built).value());
-  Expected<RestState> restState = computeRestState(*mesh);
-  if (!restState) return Error{"mesh: " + restState.error()};
-  auto rest = std::make_shared<const RestState>(std::move(restState).value());
-  const Lame lame = *membraneLame(scene);
-  Expected<Material> material = makeMaterial(scene.materialModel, lame);
-  if (!material) return Error{"material.model: " + material.error()};
+  warnings = check.warnings;
+  return std::make_shared<const Mesh>(std::move(built).value());
+}
 
-  Simulation sim;
-  sim.mesh = mesh;
-  sim.warnings = check.warnings;
-  sim.model = std::make_shared<Model>(mesh, rest,
-                                       lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
-  sim.model->addTerm(makeMembraneTerm(mesh, rest, *material), TermKind::Membrane);
+// The energy terms the scene declares: the membrane, and bending when its stiffness is not zero.
+Status addEnergyTerms(const Scene& scene, const std::shared_ptr<const Mesh>& mesh,
+                      const std::shared_ptr<const RestState>& rest, const Material& material,
+                      Model& model) {
+  model.addTerm(makeMembraneTerm(mesh, rest, material), TermKind::Membrane);
   // Zero stiffness declares no bending term at all, so planar meshes (which cannot bend) build;
   // a planar mesh with a non-zero stiffness is an error naming the key.
   if (scene.bendingStiffness > 0.0) {
@@ -642,23 +639,16 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
     }
     Expected<std::unique_ptr<EnergyTerm>> bending = makeBendingTerm(*mesh, *rest, spec);
     if (!bending) return Error{"bending.stiffness: " + bending.error()};
-    sim.model->addTerm(std::move(bending).value(), TermKind::Bending);
+    model.addTerm(std::move(bending).value(), TermKind::Bending);
   }
+  return Status::success();
+}
 
-  SimulatorSettings settings;
-  settings.gravity = scene.gravity;
-  settings.damping = scene.damping;
-  settings.dt = scene.dt;
-  settings.minSubsteps = scene.substeps;
-  settings.maxRetries = scene.maxRetries;
-  sim.simulator = std::make_unique<Simulator>(sim.model, (*findIntegrator(scene.integrator))->make(scene), settings);
-  if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
-  Simulator& simulator = *sim.simulator;
-  const int d = mesh->dim;
-  const Index n = mesh->numVertices();
-
-  // Initial state.
-  VectorX x = mesh->restPositions;
+// Initial positions and velocities before the pins place their vertices.
+Status initialState(const Scene& scene, const Mesh& mesh, VectorX& x, VectorX& v) {
+  const int d = mesh.dim;
+  const Index n = mesh.numVertices();
+  x = mesh.restPositions;
   for (const auto& p : scene.initialPositions) {
     if (p.vertex < 0 || p.vertex >= n) {
       return Error{"initial.positions: vertex " + std::to_string(p.vertex) +
@@ -666,10 +656,41 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
     }
     x.segment(d * p.vertex, d) = p.position.head(d);
   }
-  VectorX v = VectorX::Zero(x.size());
+  v = VectorX::Zero(x.size());
   for (Index i = 0; i < n; ++i) v.segment(d * i, d) = scene.initialVelocity.head(d);
+  return Status::success();
+}
 
-  // Pins (targets from the initial positions) and forces that act from the start.
+// A trajectory is followed as a velocity that changes at its waypoints: exact when the
+// waypoint times fall on step boundaries. Moves `target` to the first waypoint, sets the
+// velocity from time 0 and scripts the later changes of vertex `vert`.
+void followTrajectory(const std::vector<TrajectoryPoint>& w, Index vert, Eigen::Vector3d& target,
+                      Eigen::Vector3d& velocity, SceneScript& script) {
+  target += w.front().offset;
+  for (std::size_t j = 0; j < w.size(); ++j) {
+    // From waypoint j on, towards waypoint j + 1 (after the last one: at rest).
+    const Eigen::Vector3d slope =
+        j + 1 == w.size() ? Eigen::Vector3d::Zero()
+                          : Eigen::Vector3d((w[j + 1].offset - w[j].offset) / (w[j + 1].time - w[j].time));
+    if (w[j].time <= 0.0) {
+      velocity = slope;
+      continue;
+    }
+    SceneScript::Event e;
+    e.time = w[j].time;
+    e.kind = SceneScript::Event::Kind::PinVelocity;
+    e.vertex = vert;
+    e.velocity = slope;
+    script.add(e);
+  }
+}
+
+// Pins (targets from the initial positions x, which they move to the targets) and their
+// scripted motion and releases.
+Status applyScenePins(const Scene& scene, Simulator& simulator, SceneScript& script, VectorX& x,
+                      VectorX& v) {
+  const int d = simulator.model().dim();
+  const Index n = simulator.model().numVertices();
   for (std::size_t i = 0; i < scene.pins.size(); ++i) {
     const ScenePin& p = scene.pins[i];
     const std::string key = "pins[" + std::to_string(i) + "]";
@@ -688,29 +709,8 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         target.head(d) = x.segment(d * vert, d);
         target += p.offset;
       }
-      // A trajectory is followed as a velocity that changes at its waypoints: exact when the
-      // waypoint times fall on step boundaries.
       Eigen::Vector3d velocity = p.velocity;
-      if (!p.trajectory.empty()) {
-        const std::vector<TrajectoryPoint>& w = p.trajectory;
-        target += w.front().offset;
-        for (std::size_t j = 0; j < w.size(); ++j) {
-          // From waypoint j on, towards waypoint j + 1 (after the last one: at rest).
-          const Eigen::Vector3d slope =
-              j + 1 == w.size() ? Eigen::Vector3d::Zero()
-                                : Eigen::Vector3d((w[j + 1].offset - w[j].offset) / (w[j + 1].time - w[j].time));
-          if (w[j].time <= 0.0) {
-            velocity = slope;
-            continue;
-          }
-          SceneScript::Event e;
-          e.time = w[j].time;
-          e.kind = SceneScript::Event::Kind::PinVelocity;
-          e.vertex = vert;
-          e.velocity = slope;
-          sim.script.add(e);
-        }
-      }
+      if (!p.trajectory.empty()) followTrajectory(p.trajectory, vert, target, velocity, script);
       x.segment(d * vert, d) = target.head(d);
       v.segment(d * vert, d) = velocity.head(d);
       if (Status st = simulator.pin(vert, target, velocity); !st) return Error{key + ": " + st.error()};
@@ -719,10 +719,16 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         e.time = p.releaseAt;
         e.kind = SceneScript::Event::Kind::ReleasePin;
         e.vertex = vert;
-        sim.script.add(e);
+        script.add(e);
       }
     }
   }
+  return Status::success();
+}
+
+// Forces: applied now when they start at 0, scripted otherwise.
+Status applySceneForces(const Scene& scene, Simulator& simulator, SceneScript& script) {
+  const Index n = simulator.model().numVertices();
   for (std::size_t i = 0; i < scene.forces.size(); ++i) {
     const SceneForce& f = scene.forces[i];
     const std::string key = "forces[" + std::to_string(i) + "]";
@@ -740,10 +746,47 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         e.vertex = vert;
         e.force = f.force;
         e.duration = f.duration;
-        sim.script.add(e);
+        script.add(e);
       }
     }
   }
+  return Status::success();
+}
+
+}  // namespace
+
+Expected<Simulation> buildSimulation(const Scene& scene) {
+  if (Status s = validateScene(scene); !s) return Error{s.error()};
+  Simulation sim;
+  Expected<std::shared_ptr<const Mesh>> checked = checkedMesh(scene, sim.warnings);
+  if (!checked) return Error{checked.error()};
+  const std::shared_ptr<const Mesh> mesh = *checked;
+  Expected<RestState> restState = computeRestState(*mesh);
+  if (!restState) return Error{"mesh: " + restState.error()};
+  auto rest = std::make_shared<const RestState>(std::move(restState).value());
+  const Lame lame = *membraneLame(scene);
+  Expected<Material> material = makeMaterial(scene.materialModel, lame);
+  if (!material) return Error{"material.model: " + material.error()};
+
+  sim.mesh = mesh;
+  sim.model = std::make_shared<Model>(mesh, rest,
+                                       lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
+  FEM_CLOTH_CHECK(addEnergyTerms(scene, mesh, rest, *material, *sim.model));
+
+  SimulatorSettings settings;
+  settings.gravity = scene.gravity;
+  settings.damping = scene.damping;
+  settings.dt = scene.dt;
+  settings.minSubsteps = scene.substeps;
+  settings.maxRetries = scene.maxRetries;
+  sim.simulator = std::make_unique<Simulator>(sim.model, (*findIntegrator(scene.integrator))->make(scene), settings);
+  if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
+  Simulator& simulator = *sim.simulator;
+
+  VectorX x, v;
+  FEM_CLOTH_CHECK(initialState(scene, *mesh, x, v));
+  FEM_CLOTH_CHECK(applyScenePins(scene, simulator, sim.script, x, v));
+  FEM_CLOTH_CHECK(applySceneForces(scene, simulator, sim.script));
   if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
   if (sceneHasContact(scene)) {
     Expected<std::unique_ptr<ContactModel>> contact =

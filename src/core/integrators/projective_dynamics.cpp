@@ -4,6 +4,7 @@
 #include <cmath>
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
+#include "fem_cloth/core/integrators/step_common.h"
 
 
 namespace fem_cloth {
@@ -361,7 +362,7 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
     // masses (4 N on 4e-5 kg at h = 0.1 s puts a vertex 1000 m away), where the few iterations
     // of a step cannot recover: the cloth settled where the forces do not balance.
     for (Index i = 0; i < n * d; ++i) {
-      state.x[i] = pinned[i] ? xPrev_[i] + (target[i] - xPrev_[i]) / (substeps - s) : xhat_[i];
+      state.x[i] = pinned[i] ? pinAfterSubstep(xPrev_[i], target[i], substeps - s) : xhat_[i];
     }
     Index p = 0;
     for (Index i = 0; i < n; ++i) {
@@ -385,12 +386,8 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
     report.iterations += iteration_;
     report.unbalanced.merge(unbalanced);
     state.v = velocity_;
-    if (!state.x.allFinite() || !state.v.allFinite()) {
-      report.ok = false;
-      report.error = "projective_dynamics: the state became non-finite";
-      return report;
-    }
-    if (alpha > 0.0) report.dissipated += h * alpha * state.v.dot(mass.cwiseProduct(state.v));
+    if (!stateIsFinite(state, "projective_dynamics", report)) return report;
+    addMassDampingDissipation(h, alpha, state.v, mass, report);
     for (Index i = 0; i < n * d; ++i) {
       pinForce[i] = pinned[i] ? force_[i] : 0.0;
       if (pinned[i]) report.pinWork += force_[i] * (state.x[i] - xPrev_[i]);
@@ -416,7 +413,7 @@ IntegratorEntry projectiveDynamicsEntry() {
   e.supports.obstacles = false;
   e.supports.stiffnessDamping = false;
   e.keys = {"iterations", "chebyshev_rho"};
-  e.read = [](const SettingsReader& r, Scene& s) {
+  e.read = [](const SettingsReader& r, Scene& s) -> Status {
     FEM_CLOTH_CHECK(r.integer("iterations", s.iterations));
     return r.number("chebyshev_rho", s.chebyshevRho);
   };

@@ -8,6 +8,7 @@
 #include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
+#include "fem_cloth/core/integrators/step_common.h"
 
 namespace fem_cloth {
 
@@ -96,7 +97,7 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
     // interpolated targets.
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) {
-        state.x[i] += (target[i] - state.x[i]) / (substeps - s);
+        state.x[i] = pinAfterSubstep(state.x[i], target[i], substeps - s);
       } else {
         const double f = (*input.gravityForce)[i] + (*input.externalForce)[i];
         state.v[i] = (state.v[i] + h * f / mass[i]) / (1.0 + h * input.damping.massProportional);
@@ -137,15 +138,8 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
       velocity_ = (state.x - xStart_) / h;
     }
     state.v = velocity_;
-    if (!state.x.allFinite() || !state.v.allFinite()) {
-      report.ok = false;
-      report.error = "xpbd: the state became non-finite";
-      return report;
-    }
-    if (input.damping.massProportional > 0.0) {
-      report.dissipated +=
-          h * input.damping.massProportional * state.v.dot(mass.cwiseProduct(state.v));
-    }
+    if (!stateIsFinite(state, "xpbd", report)) return report;
+    addMassDampingDissipation(h, input.damping.massProportional, state.v, mass, report);
     // The pins balance the elastic force on their vertices (from the residual's pass) and also
     // carry their own vertices' weight, commanded forces and inertia; they do work along their
     // displacement in the substep.
