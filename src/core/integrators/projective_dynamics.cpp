@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+
+#include "fem_cloth/core/energy_forms.h"
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/integrators/step_common.h"
@@ -17,13 +19,14 @@ bool ProjectiveDynamics::prepare(const StepInput& input, double h, std::string* 
     std::vector<Eigen::Triplet<double>> triplets;
     for (std::size_t t = 0; t < model.numTerms(); ++t) {
       EnergyTerm& term = model.term(t);
-      if (!term.supportsProjective()) {
+      const ProjectiveForm* form = term.projectiveForm();
+      if (form == nullptr) {
         *error = "projective_dynamics minimises the ARAP membrane (material.model: arap) and "
                  "quadratic bending on cloth (dim 3); energy term '" + term.name() +
                  "' has no projective form";
         return false;
       }
-      term.appendProjectiveMatrix(&triplets);
+      form->appendProjectiveMatrix(&triplets);
     }
     laplacian_.resize(n, n);
     laplacian_.setFromTriplets(triplets.begin(), triplets.end());
@@ -173,7 +176,7 @@ void ProjectiveDynamics::iterate(const StepInput& input, State& state, double h,
   for (int k = 0; k < count; ++k, ++iteration_) {
     // Local step: the projections, as the right-hand side sum_i w_i S_i^T p_i(x).
     rhs_.setZero(n * d);
-    for (std::size_t t = 0; t < model.numTerms(); ++t) model.term(t).addProjectiveRhs(state.x, &rhs_);
+    for (std::size_t t = 0; t < model.numTerms(); ++t) model.term(t).projectiveForm()->addProjectiveRhs(state.x, &rhs_);
     // Global step on the free vertices: A_ff x_f = b_f - A_fp x_p.
     for (Index j = 0; j < nf; ++j) {
       const Index i = freeVertices_[j];

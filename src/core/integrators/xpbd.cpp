@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/energy_forms.h"
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/integrators/step_common.h"
@@ -15,13 +16,13 @@ namespace fem_cloth {
 namespace {
 
 using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
-                               EnergyTerm::kMaxConstraintsPerElement, EnergyTerm::kMaxElementDofs>;
+                               ConstraintForm::kMaxConstraintsPerElement, ConstraintForm::kMaxElementDofs>;
 using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0,
-                            EnergyTerm::kMaxConstraintsPerElement,
-                            EnergyTerm::kMaxConstraintsPerElement>;
+                            ConstraintForm::kMaxConstraintsPerElement,
+                            ConstraintForm::kMaxConstraintsPerElement>;
 using SmallVector =
-    Eigen::Matrix<double, Eigen::Dynamic, 1, 0, EnergyTerm::kMaxConstraintsPerElement, 1>;
-using DofVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, EnergyTerm::kMaxElementDofs, 1>;
+    Eigen::Matrix<double, Eigen::Dynamic, 1, 0, ConstraintForm::kMaxConstraintsPerElement, 1>;
+using DofVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, ConstraintForm::kMaxElementDofs, 1>;
 
 }  // namespace
 
@@ -31,7 +32,7 @@ void Xpbd::cacheStiffness(Model& model) {
   stiffness_.assign(model.numTerms(), {});
   applied_.assign(model.numTerms(), {});
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int k = term.constraintsPerElement();
     stiffness_[t].resize(static_cast<std::size_t>(term.numElements()) * k * k);
     applied_[t].resize(static_cast<std::size_t>(term.numElements()) * term.verticesPerElement() * model.dim());
@@ -54,9 +55,9 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
   const int d = model.dim();
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
     const EnergyTerm& term = model.term(t);
-    if (!term.supportsConstraints() ||
-        term.constraintsPerElement() > EnergyTerm::kMaxConstraintsPerElement ||
-        term.verticesPerElement() * d > EnergyTerm::kMaxElementDofs) {
+    const ConstraintForm* form = term.constraintForm();
+    if (form == nullptr || form->constraintsPerElement() > ConstraintForm::kMaxConstraintsPerElement ||
+        form->verticesPerElement() * d > ConstraintForm::kMaxElementDofs) {
       report.ok = false;
       report.retryable = false;
       report.error = "xpbd: energy term '" + term.name() +
@@ -171,7 +172,7 @@ void Xpbd::warmStart(Model& model, VectorX& x, double h, double dampedMass) {
   lambdaDampedMass_ = dampedMass;
   const int d = model.dim();
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int m = term.verticesPerElement() * d;
     for (Index e = 0; e < term.numElements(); ++e) {
       double* applied = &applied_[t][static_cast<std::size_t>(e) * m];
@@ -193,7 +194,7 @@ bool Xpbd::sweep(Model& model, VectorX& x, double h, double betaH, StepReport& r
   SmallVector C, rhs, lambda;
   DofVector w, dx, applied;
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int k = term.constraintsPerElement();
     const int verts = term.verticesPerElement();
     const int m = verts * d;
@@ -205,7 +206,7 @@ bool Xpbd::sweep(Model& model, VectorX& x, double h, double betaH, StepReport& r
       const Index* v = term.elementVertices(e);
       if (!term.elementConstraints(e, x, C.data(), G.data())) {
         report.ok = false;
-        report.error = "xpbd: element " + std::to_string(e) + " of " + term.name() +
+        report.error = "xpbd: element " + std::to_string(e) + " of " + model.term(t).name() +
                        " left its material's domain (J <= 0)";
         return false;
       }
@@ -271,7 +272,7 @@ ForceResidual Xpbd::residual(const StepInput& input, const VectorX& x, double h,
   SmallVector C, f;
   DofVector dxElement;
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int k = term.constraintsPerElement();
     const int verts = term.verticesPerElement();
     G.resize(k, verts * d);
