@@ -65,7 +65,7 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
        "set material.model: " + firstOf(c.materials)},
       {"mesh.dim", [](const Scene& x) { return sceneDim(x) == 2; },
        [](const IntegratorCapabilities& k, const Scene&) { return k.planar; },
-       "planar meshes (mesh.dim 2); it simulates cloth in 3D", "", "set mesh.dim: 3"},
+       "planar meshes (mesh.dim 2); it simulates cloth (dim 3) only", "", "set mesh.dim: 3"},
       {"bending.model", [](const Scene& x) { return x.bendingStiffness > 0.0; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.bendingModels, x.bendingModel); },
        "bending model '" + s.bendingModel + "'" + bendingDefault,
