@@ -230,7 +230,7 @@ EvalResult HingeTerm::reduce(const EvalRequest& request) const {
 // ---------------------------------------------------------------------------------------------
 
 QuadraticBending::QuadraticBending(const Mesh& mesh, const RestState& rest, double stiffness)
-    : HingeTerm(mesh, stiffness) {
+    : HingeConstraintTerm(mesh, stiffness) {
   stencils_.reserve(hinges_.size());
   weights_.reserve(hinges_.size());
   for (const Hinge& hinge : hinges_) {
@@ -311,7 +311,7 @@ void QuadraticBending::elementConstraintStiffness(Index h, double* K) const {
 }
 
 DihedralBending::DihedralBending(const Mesh& mesh, const RestState& rest, double stiffness)
-    : HingeTerm(mesh, stiffness) {
+    : HingeConstraintTerm(mesh, stiffness) {
   restAngles_.reserve(hinges_.size());
   weights_.reserve(hinges_.size());
   for (const Hinge& hinge : hinges_) {

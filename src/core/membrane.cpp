@@ -5,12 +5,14 @@
 #include <limits>
 #include <type_traits>
 
+#include "fem_cloth/core/energy_forms.h"
+
 namespace fem_cloth {
 
 namespace {
 
 template <int D, class Model>
-class MembraneTerm final : public EnergyTerm {
+class MembraneTerm final : public EnergyTerm, public ConstraintForm, public ProjectiveForm {
  public:
   MembraneTerm(std::shared_ptr<const Mesh> mesh, std::shared_ptr<const RestState> rest,
                const Model& model)
@@ -63,7 +65,8 @@ class MembraneTerm final : public EnergyTerm {
     return worst;
   }
 
-  bool supportsConstraints() const override { return true; }
+  // Constraint form (energy_forms.h), one element per triangle: every material has one.
+  const ConstraintForm* constraintForm() const override { return this; }
   Index numElements() const override { return mesh_->numTriangles(); }
   int verticesPerElement() const override { return 3; }
   int constraintsPerElement() const override { return Model::kNumConstraints; }
@@ -98,7 +101,10 @@ class MembraneTerm final : public EnergyTerm {
 
   // Projective form of ARAP: A mu |F - R|^2 = (2 mu A)/2 |S x - R|^2 per coordinate row of F,
   // with S the 2 x 3 matrix of shape gradients and R the closest rotation (polar).
-  bool supportsProjective() const override { return std::is_same_v<Model, Arap> && D == 3; }
+  ProjectiveForm* projectiveForm() override {
+    if constexpr (std::is_same_v<Model, Arap> && D == 3) return this;
+    return nullptr;
+  }
   void appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* triplets) const override {
     for (Index t = 0; t < mesh_->numTriangles(); ++t) {
       const double w = 2.0 * model_.mu() * rest_->restArea[t];

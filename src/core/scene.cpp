@@ -30,11 +30,12 @@ Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
   return Status::success();
 }
 
+}  // namespace
+
 // The sane ranges of docs/scenes.md: finite values far outside what any cloth, time step or
 // load can mean (damping.mass: 1e300) are refused like non-finite ones, before they overflow
 // an energy or make a run of 10^300 substeps.
 
-/// value in [lo, hi] (unit: SI, for the message).
 Status inRange(double value, double lo, double hi, const std::string& key, const std::string& unit) {
   if (!(value >= lo && value <= hi)) {
     return Error{key + " must be in [" + numberText(lo) + ", " + numberText(hi) + "]" +
@@ -43,18 +44,20 @@ Status inRange(double value, double lo, double hi, const std::string& key, const
   return Status::success();
 }
 
-/// value in (0, hi].
-Status positiveUpTo(double value, double hi, const std::string& key, const std::string& unit) {
-  if (!(value > 0.0 && value <= hi)) {
-    return Error{key + " must be in (0, " + numberText(hi) + "] " + unit + ", got " + numberText(value)};
-  }
-  return Status::success();
-}
-
 Status countInRange(int value, int lo, int hi, const std::string& key) {
   if (value < lo || value > hi) {
     return Error{key + " must be a whole number in [" + std::to_string(lo) + ", " +
                  std::to_string(hi) + "], got " + std::to_string(value)};
+  }
+  return Status::success();
+}
+
+namespace {
+
+/// value in (0, hi].
+Status positiveUpTo(double value, double hi, const std::string& key, const std::string& unit) {
+  if (!(value > 0.0 && value <= hi)) {
+    return Error{key + " must be in (0, " + numberText(hi) + "] " + unit + ", got " + numberText(value)};
   }
   return Status::success();
 }
@@ -95,12 +98,6 @@ Status checkTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std
 }
 
 }  // namespace
-
-const std::vector<std::string>& integratorNames() {
-  static const std::vector<std::string> names = {"symplectic_euler", "backward_euler", "bdf2",
-                                                 "xpbd", "projective_dynamics"};
-  return names;
-}
 
 namespace {
 
@@ -167,59 +164,21 @@ Status validateMaterialKeys(const Scene& s) {
   if (!(s.bendingPoissonRatio >= 0.0 && s.bendingPoissonRatio < 0.5)) {
     return Error{"bending.poisson_ratio must be in [0, 0.5), got " + numberText(s.bendingPoissonRatio)};
   }
-  if (s.integrator == "xpbd" && s.bendingStiffness > 0.0 && s.bendingModel == "midedge") {
-    // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge element
-    // reads 12 vertices. Said when the scene is loaded rather than at the first step.
-    return Error{"bending.model: xpbd needs a bending model with a constraint form, quadratic or "
-                 "dihedral, got 'midedge' (the default; set bending.model)"};
-  }
   FEM_CLOTH_CHECK(inRange(s.damping.massProportional, 0.0, 1e4, "damping.mass", "1/s"));
   FEM_CLOTH_CHECK(inRange(s.damping.stiffnessProportional, 0.0, 10.0, "damping.stiffness", "s"));
   return boundedVector(s.gravity, 1e3, "gravity", "m/s^2");
 }
 
+// The keys every integrator reads, then each registered integrator's own (registry.h), whatever
+// the scene's integrator: a bad value is refused even while another integrator is chosen.
 Status validateIntegratorKeys(const Scene& s) {
-  if (std::find(integratorNames().begin(), integratorNames().end(), s.integrator) ==
-      integratorNames().end()) {
-    return Error{"integrator.name: unknown integrator '" + s.integrator +
-                 "' (known: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics)"};
-  }
-  if (s.integrator == "projective_dynamics") {
-    // Projective dynamics needs every energy term in the form w/2 |A x - p(x)|^2 with a constant
-    // A (Bouaziz et al. 2014, sec. 3); here that is the ARAP membrane and quadratic bending on
-    // cloth. Say so when the scene is loaded rather than at the first step.
-    if (s.materialModel != "arap") {
-      return Error{"material.model: projective_dynamics simulates the arap membrane only, got '" +
-                   s.materialModel + "' (use material.model: arap, or another integrator)"};
-    }
-    const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
-    if (dim != 3) {
-      return Error{"mesh.dim: projective_dynamics simulates cloth (dim 3) only"};
-    }
-    if (s.bendingStiffness > 0.0 && s.bendingModel != "quadratic") {
-      return Error{"bending.model: projective_dynamics needs the quadratic bending model, got '" +
-                   s.bendingModel + "'" + (s.bendingModel == "midedge" ? " (the default; set bending.model: quadratic)" : "")};
-    }
-    if (s.damping.stiffnessProportional > 0.0) {
-      return Error{"damping.stiffness: projective_dynamics has no stiffness damping; set it to 0 "
-                   "and use damping.mass"};
-    }
+  if (Expected<const IntegratorEntry*> known = findIntegrator(s.integrator); !known) {
+    return Error{"integrator.name: " + known.error()};
   }
   FEM_CLOTH_CHECK(inRange(s.dt, 1e-7, 100.0, "integrator.dt", "s"));
   FEM_CLOTH_CHECK(countInRange(s.substeps, 1, 1'000'000, "integrator.substeps"));
   FEM_CLOTH_CHECK(countInRange(s.maxRetries, 0, 20, "integrator.max_retries"));
-  if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
-    return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(s.cflSafety)};
-  }
-  FEM_CLOTH_CHECK(countInRange(s.newton.maxIterations, 1, 10'000, "integrator.max_newton_iterations"));
-  FEM_CLOTH_CHECK(inRange(s.newton.tolerance, 1e-12, 10.0, "integrator.newton_tolerance", "1/s"));
-  FEM_CLOTH_CHECK(countInRange(s.newton.maxBacktracks, 0, 200, "integrator.max_backtracks"));
-  FEM_CLOTH_CHECK(inRange(s.newton.linear.cgTolerance, 1e-16, 0.1, "integrator.cg_tolerance", ""));
-  FEM_CLOTH_CHECK(countInRange(s.newton.linear.cgMaxIterations, 1, 10'000'000, "integrator.cg_max_iterations"));
-  FEM_CLOTH_CHECK(countInRange(s.iterations, 1, 100'000, "integrator.iterations"));
-  if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
-    return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(s.chebyshevRho)};
-  }
+  for (const IntegratorEntry& entry : integratorRegistry()) FEM_CLOTH_CHECK(entry.check(s));
   return Status::success();
 }
 
@@ -279,17 +238,6 @@ Status validateContactKeys(const Scene& s) {
                                        : "obstacles need a 3D cloth (mesh.dim 3)"};
     }
   }
-  if (s.contact.selfCollision && s.integrator != "backward_euler" && s.integrator != "bdf2") {
-    return Error{"contact.self_collision needs an implicit integrator (backward_euler or bdf2), "
-                 "not " + s.integrator};
-  }
-  if (!s.obstacles.empty() && s.integrator == "projective_dynamics") {
-    // Its constant, prefactored system (Bouaziz et al. 2014) has no place for a barrier whose
-    // Hessian changes with the contacts, and a projection after its global step would undo the
-    // convergence it is chosen for; refused rather than silently ignoring the obstacles.
-    return Error{"obstacles: projective_dynamics does not handle contact; use backward_euler, bdf2, "
-                 "symplectic_euler or xpbd as integrator.name, or remove the obstacles"};
-  }
   std::set<std::string> names;
   for (std::size_t i = 0; i < s.obstacles.size(); ++i) {
     const std::string key = "obstacles[" + std::to_string(i) + "]";
@@ -312,7 +260,9 @@ Status validateScene(const Scene& s) {
   FEM_CLOTH_CHECK(validateCommandKeys(s));
   FEM_CLOTH_CHECK(validateAirKeys(s));
   FEM_CLOTH_CHECK(validateRunLength(s));
-  return validateContactKeys(s);
+  FEM_CLOTH_CHECK(validateContactKeys(s));
+  // Last: what the integrator supports is asked of a scene whose every key is valid.
+  return checkIntegratorSupports(s);
 }
 
 Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) {
@@ -530,32 +480,6 @@ Expected<Mesh> buildMesh(const Scene& s) {
   return mesh;
 }
 
-std::unique_ptr<Integrator> makeIntegrator(const Scene& s) {
-  if (s.integrator == "symplectic_euler") {
-    SymplecticEulerSettings settings;
-    settings.autoSubstep = s.autoSubstep;
-    settings.cflSafety = s.cflSafety;
-    return std::make_unique<SymplecticEuler>(settings);
-  }
-  if (s.integrator == "projective_dynamics") {
-    ProjectiveDynamicsSettings settings;
-    settings.iterations = s.iterations;
-    settings.chebyshevRho = s.chebyshevRho;
-    return std::make_unique<ProjectiveDynamics>(settings);
-  }
-  if (s.integrator == "xpbd") {
-    XpbdSettings settings;
-    settings.iterations = s.iterations;
-    return std::make_unique<Xpbd>(settings);
-  }
-  return std::make_unique<ImplicitIntegrator>(
-      s.integrator == "bdf2" ? ImplicitScheme::Bdf2 : ImplicitScheme::BackwardEuler, s.newton);
-}
-
-}  // namespace
-
-namespace {
-
 // The contact distance dHat is a gap the cloth keeps from obstacles and from itself: one larger
 // than the mesh's shortest edge keeps the cloth floating coarser than it is resolved, and with
 // self-collision pushes apart vertices that are neighbours at rest.
@@ -681,8 +605,10 @@ Expected<std::unique_ptr<ContactModel>> makeContact(const Scene& scene, const Mo
 }
 }  // namespace
 
-Expected<Simulation> buildSimulation(const Scene& scene) {
-  if (Status s = validateScene(scene); !s) return Error{s.error()};
+namespace {
+
+// The scene's mesh, built and checked (mesh warnings into `warnings`).
+Expected<std::shared_ptr<const Mesh>> checkedMesh(const Scene& scene, std::vector<std::string>& warnings) {
   Expected<Mesh> built = buildMesh(scene);
   if (!built) return Error{(scene.meshType == "obj" ? "mesh.file: " : "mesh: ") + built.error()};
   const MeshValidation check = validateMesh(*built, scene.minTriangleQuality);
@@ -690,20 +616,15 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   if (scene.meshType != "grid") {
     if (Status st = checkMeshExtent(*built); !st) return Error{"mesh: " + st.error()};
   }
-  auto mesh = std::make_shared<const Mesh>(std::move(built).value());
-  Expected<RestState> restState = computeRestState(*mesh);
-  if (!restState) return Error{"mesh: " + restState.error()};
-  auto rest = std::make_shared<const RestState>(std::move(restState).value());
-  const Lame lame = *membraneLame(scene);
-  Expected<Material> material = makeMaterial(scene.materialModel, lame);
-  if (!material) return Error{"material.model: " + material.error()};
+  warnings = check.warnings;
+  return std::make_shared<const Mesh>(std::move(built).value());
+}
 
-  Simulation sim;
-  sim.mesh = mesh;
-  sim.warnings = check.warnings;
-  sim.model = std::make_shared<Model>(mesh, rest,
-                                       lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
-  sim.model->addTerm(makeMembraneTerm(mesh, rest, *material), TermKind::Membrane);
+// The energy terms the scene declares: the membrane, and bending when its stiffness is not zero.
+Status addEnergyTerms(const Scene& scene, const std::shared_ptr<const Mesh>& mesh,
+                      const std::shared_ptr<const RestState>& rest, const Material& material,
+                      Model& model) {
+  model.addTerm(makeMembraneTerm(mesh, rest, material), TermKind::Membrane);
   // Zero stiffness declares no bending term at all, so planar meshes (which cannot bend) build;
   // a planar mesh with a non-zero stiffness is an error naming the key.
   if (scene.bendingStiffness > 0.0) {
@@ -718,23 +639,16 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
     }
     Expected<std::unique_ptr<EnergyTerm>> bending = makeBendingTerm(*mesh, *rest, spec);
     if (!bending) return Error{"bending.stiffness: " + bending.error()};
-    sim.model->addTerm(std::move(bending).value(), TermKind::Bending);
+    model.addTerm(std::move(bending).value(), TermKind::Bending);
   }
+  return Status::success();
+}
 
-  SimulatorSettings settings;
-  settings.gravity = scene.gravity;
-  settings.damping = scene.damping;
-  settings.dt = scene.dt;
-  settings.minSubsteps = scene.substeps;
-  settings.maxRetries = scene.maxRetries;
-  sim.simulator = std::make_unique<Simulator>(sim.model, makeIntegrator(scene), settings);
-  if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
-  Simulator& simulator = *sim.simulator;
-  const int d = mesh->dim;
-  const Index n = mesh->numVertices();
-
-  // Initial state.
-  VectorX x = mesh->restPositions;
+// Initial positions and velocities before the pins place their vertices.
+Status initialState(const Scene& scene, const Mesh& mesh, VectorX& x, VectorX& v) {
+  const int d = mesh.dim;
+  const Index n = mesh.numVertices();
+  x = mesh.restPositions;
   for (const auto& p : scene.initialPositions) {
     if (p.vertex < 0 || p.vertex >= n) {
       return Error{"initial.positions: vertex " + std::to_string(p.vertex) +
@@ -742,10 +656,41 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
     }
     x.segment(d * p.vertex, d) = p.position.head(d);
   }
-  VectorX v = VectorX::Zero(x.size());
+  v = VectorX::Zero(x.size());
   for (Index i = 0; i < n; ++i) v.segment(d * i, d) = scene.initialVelocity.head(d);
+  return Status::success();
+}
 
-  // Pins (targets from the initial positions) and forces that act from the start.
+// A trajectory is followed as a velocity that changes at its waypoints: exact when the
+// waypoint times fall on step boundaries. Moves `target` to the first waypoint, sets the
+// velocity from time 0 and scripts the later changes of vertex `vert`.
+void followTrajectory(const std::vector<TrajectoryPoint>& w, Index vert, Eigen::Vector3d& target,
+                      Eigen::Vector3d& velocity, SceneScript& script) {
+  target += w.front().offset;
+  for (std::size_t j = 0; j < w.size(); ++j) {
+    // From waypoint j on, towards waypoint j + 1 (after the last one: at rest).
+    const Eigen::Vector3d slope =
+        j + 1 == w.size() ? Eigen::Vector3d::Zero()
+                          : Eigen::Vector3d((w[j + 1].offset - w[j].offset) / (w[j + 1].time - w[j].time));
+    if (w[j].time <= 0.0) {
+      velocity = slope;
+      continue;
+    }
+    SceneScript::Event e;
+    e.time = w[j].time;
+    e.kind = SceneScript::Event::Kind::PinVelocity;
+    e.vertex = vert;
+    e.velocity = slope;
+    script.add(e);
+  }
+}
+
+// Pins (targets from the initial positions x, which they move to the targets) and their
+// scripted motion and releases.
+Status applyScenePins(const Scene& scene, Simulator& simulator, SceneScript& script, VectorX& x,
+                      VectorX& v) {
+  const int d = simulator.model().dim();
+  const Index n = simulator.model().numVertices();
   for (std::size_t i = 0; i < scene.pins.size(); ++i) {
     const ScenePin& p = scene.pins[i];
     const std::string key = "pins[" + std::to_string(i) + "]";
@@ -764,29 +709,8 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         target.head(d) = x.segment(d * vert, d);
         target += p.offset;
       }
-      // A trajectory is followed as a velocity that changes at its waypoints: exact when the
-      // waypoint times fall on step boundaries.
       Eigen::Vector3d velocity = p.velocity;
-      if (!p.trajectory.empty()) {
-        const std::vector<TrajectoryPoint>& w = p.trajectory;
-        target += w.front().offset;
-        for (std::size_t j = 0; j < w.size(); ++j) {
-          // From waypoint j on, towards waypoint j + 1 (after the last one: at rest).
-          const Eigen::Vector3d slope =
-              j + 1 == w.size() ? Eigen::Vector3d::Zero()
-                                : Eigen::Vector3d((w[j + 1].offset - w[j].offset) / (w[j + 1].time - w[j].time));
-          if (w[j].time <= 0.0) {
-            velocity = slope;
-            continue;
-          }
-          SceneScript::Event e;
-          e.time = w[j].time;
-          e.kind = SceneScript::Event::Kind::PinVelocity;
-          e.vertex = vert;
-          e.velocity = slope;
-          sim.script.add(e);
-        }
-      }
+      if (!p.trajectory.empty()) followTrajectory(p.trajectory, vert, target, velocity, script);
       x.segment(d * vert, d) = target.head(d);
       v.segment(d * vert, d) = velocity.head(d);
       if (Status st = simulator.pin(vert, target, velocity); !st) return Error{key + ": " + st.error()};
@@ -795,10 +719,16 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         e.time = p.releaseAt;
         e.kind = SceneScript::Event::Kind::ReleasePin;
         e.vertex = vert;
-        sim.script.add(e);
+        script.add(e);
       }
     }
   }
+  return Status::success();
+}
+
+// Forces: applied now when they start at 0, scripted otherwise.
+Status applySceneForces(const Scene& scene, Simulator& simulator, SceneScript& script) {
+  const Index n = simulator.model().numVertices();
   for (std::size_t i = 0; i < scene.forces.size(); ++i) {
     const SceneForce& f = scene.forces[i];
     const std::string key = "forces[" + std::to_string(i) + "]";
@@ -816,10 +746,47 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
         e.vertex = vert;
         e.force = f.force;
         e.duration = f.duration;
-        sim.script.add(e);
+        script.add(e);
       }
     }
   }
+  return Status::success();
+}
+
+}  // namespace
+
+Expected<Simulation> buildSimulation(const Scene& scene) {
+  if (Status s = validateScene(scene); !s) return Error{s.error()};
+  Simulation sim;
+  Expected<std::shared_ptr<const Mesh>> checked = checkedMesh(scene, sim.warnings);
+  if (!checked) return Error{checked.error()};
+  const std::shared_ptr<const Mesh> mesh = *checked;
+  Expected<RestState> restState = computeRestState(*mesh);
+  if (!restState) return Error{"mesh: " + restState.error()};
+  auto rest = std::make_shared<const RestState>(std::move(restState).value());
+  const Lame lame = *membraneLame(scene);
+  Expected<Material> material = makeMaterial(scene.materialModel, lame);
+  if (!material) return Error{"material.model: " + material.error()};
+
+  sim.mesh = mesh;
+  sim.model = std::make_shared<Model>(mesh, rest,
+                                       lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
+  FEM_CLOTH_CHECK(addEnergyTerms(scene, mesh, rest, *material, *sim.model));
+
+  SimulatorSettings settings;
+  settings.gravity = scene.gravity;
+  settings.damping = scene.damping;
+  settings.dt = scene.dt;
+  settings.minSubsteps = scene.substeps;
+  settings.maxRetries = scene.maxRetries;
+  sim.simulator = std::make_unique<Simulator>(sim.model, (*findIntegrator(scene.integrator))->make(scene), settings);
+  if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
+  Simulator& simulator = *sim.simulator;
+
+  VectorX x, v;
+  FEM_CLOTH_CHECK(initialState(scene, *mesh, x, v));
+  FEM_CLOTH_CHECK(applyScenePins(scene, simulator, sim.script, x, v));
+  FEM_CLOTH_CHECK(applySceneForces(scene, simulator, sim.script));
   if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
   if (sceneHasContact(scene)) {
     Expected<std::unique_ptr<ContactModel>> contact =

@@ -30,7 +30,8 @@ std::string describe(const YAML::Node& node) {
 }
 
 // Reads the keys of one YAML map, remembering which were used so that unknown keys are errors.
-class MapReader {
+// Integrators read their own keys through it (registry.h's SettingsReader).
+class MapReader final : public SettingsReader {
  public:
   // A missing key gives yaml-cpp's "zombie" node, on which most calls throw: keep a null
   // node instead.
@@ -65,12 +66,12 @@ class MapReader {
   /// which the readers of values refuse (a forgotten value must not become the default).
   bool has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined(); }
   YAML::Node child(const std::string& key) const { return node_.IsMap() ? node_[key] : YAML::Node(); }
-  std::string where(const std::string& key) const {
+  std::string where(const std::string& key) const override {
     if (path_.empty()) return key.empty() ? "scene" : key;
     return key.empty() ? path_ : path_ + "." + key;
   }
 
-  Status number(const std::string& key, double& out) const {
+  Status number(const std::string& key, double& out) const override {
     if (!has(key)) return Status::success();
     return toNumber(child(key), where(key), out);
   }
@@ -81,11 +82,11 @@ class MapReader {
     out = v;
     return Status::success();
   }
-  Status integer(const std::string& key, int& out) const {
+  Status integer(const std::string& key, int& out) const override {
     if (!has(key)) return Status::success();
     return toInteger(child(key), where(key), out);
   }
-  Status boolean(const std::string& key, bool& out) const {
+  Status boolean(const std::string& key, bool& out) const override {
     if (!has(key)) return Status::success();
     const YAML::Node n = child(key);
     try {
@@ -96,7 +97,7 @@ class MapReader {
     }
     return Status::success();
   }
-  Status text(const std::string& key, std::string& out) const {
+  Status text(const std::string& key, std::string& out) const override {
     if (!has(key)) return Status::success();
     const YAML::Node n = child(key);
     if (!n.IsScalar()) return Error{where(key) + " must be a word, got " + describe(n)};
@@ -240,30 +241,16 @@ Status readMesh(const YAML::Node& node, Scene& s) {
   return Status::success();
 }
 
+// The keys every integrator reads, then every registered integrator's own (registry.h), so
+// that all of them are checked whichever integrator the scene names.
 Status readIntegrator(const YAML::Node& node, Scene& s) {
-  MapReader r(node, "integrator",
-              {"name", "dt", "substeps", "auto_substep", "cfl_safety", "max_retries",
-               "max_newton_iterations", "newton_tolerance", "max_backtracks", "linear_solver",
-               "cg_tolerance", "cg_max_iterations", "iterations", "chebyshev_rho"});
+  MapReader r(node, "integrator", integratorKeys());
   FEM_CLOTH_CHECK(r.check());
   FEM_CLOTH_CHECK(r.text("name", s.integrator));
   FEM_CLOTH_CHECK(r.number("dt", s.dt));
   FEM_CLOTH_CHECK(r.integer("substeps", s.substeps));
-  FEM_CLOTH_CHECK(r.boolean("auto_substep", s.autoSubstep));
-  FEM_CLOTH_CHECK(r.number("cfl_safety", s.cflSafety));
   FEM_CLOTH_CHECK(r.integer("max_retries", s.maxRetries));
-  FEM_CLOTH_CHECK(r.integer("max_newton_iterations", s.newton.maxIterations));
-  FEM_CLOTH_CHECK(r.number("newton_tolerance", s.newton.tolerance));
-  FEM_CLOTH_CHECK(r.integer("max_backtracks", s.newton.maxBacktracks));
-  std::string solver = "auto";
-  FEM_CLOTH_CHECK(r.text("linear_solver", solver));
-  Expected<LinearSolverKind> kind = parseLinearSolverKind(solver);
-  if (!kind) return Error{"integrator.linear_solver: " + kind.error()};
-  s.newton.linear.kind = *kind;
-  FEM_CLOTH_CHECK(r.number("cg_tolerance", s.newton.linear.cgTolerance));
-  FEM_CLOTH_CHECK(r.integer("cg_max_iterations", s.newton.linear.cgMaxIterations));
-  FEM_CLOTH_CHECK(r.integer("iterations", s.iterations));
-  FEM_CLOTH_CHECK(r.number("chebyshev_rho", s.chebyshevRho));
+  for (const IntegratorEntry& entry : integratorRegistry()) FEM_CLOTH_CHECK(entry.read(r, s));
   return Status::success();
 }
 

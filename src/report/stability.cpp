@@ -100,17 +100,21 @@ CellResult runCell(const Cell& cell, int n, double wallBudget) {
     case RunResult::Outcome::NonFinite: c.verdict = "non_finite"; break;
     case RunResult::Outcome::OverBudget: c.verdict = "too_slow"; break;
     case RunResult::Outcome::BuildError: {
-      // n/a when this integrator refuses the scene's settings at load (projective dynamics takes
-      // ARAP cloth only) while backward Euler accepts them: the cell does not apply. Otherwise
-      // the case itself is refused (e.g. Neo-Hookean starting inverted): a clear error, "failed".
+      // n/a when the integrator does not support what the scene asks for (integrator registry:
+      // projective dynamics takes ARAP cloth only), asked of the same cell as a scene that
+      // backward Euler, which supports every material, loads: the cell does not apply.
+      // Otherwise the case itself is refused (e.g. Neo-Hookean starting inverted): a clear
+      // error, "failed".
       Cell probe = cell;
       probe.integrator = "backward_euler";
-      const bool refusedHere = !parseScene(*doc);
-      bool loadsWithBackwardEuler = false;
+      bool unsupported = false;
       if (Expected<YAML::Node> probeDoc = cellScene(probe, n)) {
-        loadsWithBackwardEuler = parseScene(*probeDoc).ok();
+        if (Expected<Scene> scene = parseScene(*probeDoc)) {
+          scene->integrator = cell.integrator;
+          unsupported = !checkIntegratorSupports(*scene);
+        }
       }
-      c.verdict = refusedHere && loadsWithBackwardEuler ? "n/a" : "failed";
+      c.verdict = unsupported ? "n/a" : "failed";
       break;
     }
   }

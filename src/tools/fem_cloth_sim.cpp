@@ -563,6 +563,16 @@ int runParsed(const Options& opt) {
   return runScene(opt, overrides);
 }
 
+// The integrators and what each supports, from the integrator registry.
+std::string integratorHelp() {
+  std::ostringstream text;
+  text << "Integrators (integrator.name):\n";
+  for (const IntegratorEntry& e : integratorRegistry()) {
+    text << "  " << e.name << ": " << e.summary << "\n      " << capabilitiesText(e.supports) << '\n';
+  }
+  return text.str();
+}
+
 int run(int argc, char** argv) {
   Options opt;
   CLI::App app{
@@ -572,8 +582,10 @@ int run(int argc, char** argv) {
   app.add_option("--scene", opt.scene,
                  "scene YAML file (see docs/scenes.md); with --commands, replaces the scene "
                  "stored in the bag");
+  std::string integratorList;
+  for (const std::string& name : integratorNames()) integratorList += (integratorList.empty() ? "" : ", ") + name;
   app.add_option("--integrator", opt.integrator,
-                 "override integrator.name: symplectic_euler, backward_euler, bdf2, xpbd, projective_dynamics");
+                 "override integrator.name: " + integratorList + " (see below)");
   app.add_option("--dt", opt.dt, "override integrator.dt (s)");
   app.add_option("--duration", opt.duration, "override the scene's duration (s)");
   app.add_option("--set", opt.overrides, "override any scene key: key.path=value (repeatable)");
@@ -598,6 +610,7 @@ int run(int argc, char** argv) {
   app.add_option("--write-scene", opt.writeScene,
                  "write the scene with the --set overrides applied to this YAML file (runs "
                  "again with --scene FILE alone)");
+  app.footer(integratorHelp());
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

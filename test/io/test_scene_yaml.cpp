@@ -198,7 +198,7 @@ contact: {distance: 0.003, stiffness: 20, self_collision: true, self_friction: 0
   expectParseError(std::string(kBase) + "contact: {stiffness: -3}\n", {"contact.stiffness", "auto"});
   expectParseError(std::string(kBase) + "contact: {self_colision: true}\n", {"unknown key 'contact.self_colision'"});
   expectParseError(variant("integrator.name", "xpbd") + "\ncontact: {self_collision: true}\n",
-                   {"contact.self_collision", "implicit", "xpbd"});
+                   {"contact.self_collision", "xpbd", "self-contact", "backward_euler, bdf2"});
   expectParseError(variant("mesh.dim", "2") + "\nobstacles: [{type: plane}]\n", {"obstacles", "3D"});
   expectParseError(std::string(kBase) + "pins: [{vertices: [0], velocity: [1, 0, 0], trajectory: [{time: 0, offset: [0, 0, 0]}]}]\n",
                    {"pins[0]", "velocity or trajectory"});

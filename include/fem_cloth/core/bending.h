@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/energy_forms.h"
 #include "fem_cloth/core/energy_term.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/mesh.h"
@@ -86,14 +87,6 @@ class HingeTerm : public EnergyTerm {
   void appendStencils(std::vector<std::vector<Index>>* stencils) const override;
   void bindHessian(const SparseHessian& hessian) override;
 
-  // Constraint form (see energy_term.h), one element per hinge.
-  bool supportsConstraints() const override { return true; }
-  Index numElements() const override { return static_cast<Index>(hinges_.size()); }
-  int verticesPerElement() const override { return 4; }
-  const Index* elementVertices(Index hinge) const override {
-    return hinges_[static_cast<std::size_t>(hinge)].vertices.data();
-  }
-
  protected:
   /// Preconditions (checked by makeBendingTerm): a 3D mesh, rest computed from it, finite k >= 0.
   HingeTerm(const Mesh& mesh, double stiffness);
@@ -128,7 +121,22 @@ class HingeTerm : public EnergyTerm {
 /// so E = (k/6) sum x^T Q_e x is the Kirchhoff energy (see DihedralBending for the cylinder).
 /// Assumes a flat rest state: for a curved rest shape the energy measures bending away from flat
 /// (the rest state itself has energy); use DihedralBending to keep a curved rest shape.
-class QuadraticBending final : public HingeTerm {
+/// A hinge term with a constraint form (energy_forms.h), one element per hinge; the derived term
+/// gives the constraints.
+class HingeConstraintTerm : public HingeTerm, public ConstraintForm {
+ public:
+  const ConstraintForm* constraintForm() const override { return this; }
+  Index numElements() const override { return static_cast<Index>(hinges_.size()); }
+  int verticesPerElement() const override { return 4; }
+  const Index* elementVertices(Index hinge) const override {
+    return hinges_[static_cast<std::size_t>(hinge)].vertices.data();
+  }
+
+ protected:
+  using HingeTerm::HingeTerm;
+};
+
+class QuadraticBending final : public HingeConstraintTerm, public ProjectiveForm {
  public:
   QuadraticBending(const Mesh& mesh, const RestState& rest, double stiffness);
 
@@ -137,7 +145,7 @@ class QuadraticBending final : public HingeTerm {
   bool hasConstantHessian() const override { return true; }
 
   /// Projective form: already quadratic, E = 1/2 x^T Q x with p = 0; nothing to project.
-  bool supportsProjective() const override { return true; }
+  ProjectiveForm* projectiveForm() override { return this; }
   void appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* triplets) const override;
   void addProjectiveRhs(const VectorX& /*x*/, VectorX* /*rhs*/) override {}
 
@@ -169,7 +177,7 @@ class QuadraticBending final : public HingeTerm {
 /// is indefinite away from rest; HessianMode::Projected clamps the negative eigenvalues of each
 /// hinge's 12 x 12 Hessian to zero (the closest PSD matrix; exact when already PSD).
 /// A hinge with a degenerate triangle at x is out of the domain (the angle is undefined).
-class DihedralBending final : public HingeTerm {
+class DihedralBending final : public HingeConstraintTerm {
  public:
   DihedralBending(const Mesh& mesh, const RestState& rest, double stiffness);
 

@@ -108,9 +108,9 @@ class MidedgeBending final : public HingeTerm {
   void appendStencils(std::vector<std::vector<Index>>* stencils) const override;
   void bindHessian(const SparseHessian& hessian) override;
 
-  /// No constraint form (an element couples 12 vertices and up to 9 hinge measures): XPBD
-  /// refuses it; use quadratic or dihedral bending with XPBD.
-  bool supportsConstraints() const override { return false; }
+  // No constraint form (an element couples 12 vertices and up to 9 hinge measures): XPBD
+  // refuses it (the integrator registry says so when the scene is loaded); use quadratic or
+  // dihedral bending with XPBD.
 
   double poissonRatio() const { return poissonRatio_; }
   const std::vector<MidedgeElement>& elements() const { return elements_; }

@@ -13,6 +13,9 @@
 
 namespace fem_cloth {
 
+class ConstraintForm;
+class ProjectiveForm;
+
 enum class HessianMode {
   Exact,      ///< d^2E/dx^2 as it is (may be indefinite)
   Projected,  ///< each element's Hessian projected to positive semi-definite (for Newton)
@@ -69,37 +72,11 @@ class EnergyTerm {
   /// The element with the largest validity measure at x (see Validity).
   virtual Validity validity(const VectorX& /*x*/) const { return {}; }
 
-  // Constraint form, for solvers that visit one element at a time (XPBD): the energy of
-  // element e is U_e = 1/2 C_e^T K_e C_e with k signed constraint functions C_e(x) (zero at
-  // rest) and a constant k x k matrix K_e. A term without it (supportsConstraints() == false)
-  // cannot be used with such solvers.
-  static constexpr int kMaxConstraintsPerElement = 3;
-  static constexpr int kMaxElementDofs = 12;
-  virtual bool supportsConstraints() const { return false; }
-  virtual Index numElements() const { return 0; }
-  virtual int verticesPerElement() const { return 0; }
-  virtual int constraintsPerElement() const { return 0; }
-  /// The element's vertex indices (verticesPerElement() of them).
-  virtual const Index* elementVertices(Index /*element*/) const { return nullptr; }
-  /// C (k values) and dC/dx (k rows of verticesPerElement() * dim entries, row-major, element
-  /// vertex order) at x; false outside the domain. Thread-safe.
-  virtual bool elementConstraints(Index /*element*/, const VectorX& /*x*/, double* /*C*/,
-                                  double* /*jacobian*/) const {
-    return false;
-  }
-  /// K_e (k x k, row-major), constant.
-  virtual void elementConstraintStiffness(Index /*element*/, double* /*K*/) const {}
-
-  // Projective form, for Projective Dynamics (Bouaziz, Martin, Liu, Kavan & Pauly, "Projective
-  // Dynamics: Fusing Constraint Projections for Fast Simulation", 2014): the energy is
-  //   E(x) = sum_i w_i / 2 |S_i x - p_i(x)|^2,  p_i(x) = argmin over the element's rest-shape set,
-  // with S_i acting on every coordinate alike. Then the system matrix sum_i w_i S_i^T S_i is
-  // constant and the same scalar (n x n) matrix for every coordinate.
-  virtual bool supportsProjective() const { return false; }
-  /// Adds the scalar matrix sum_i w_i S_i^T S_i (vertex indices, n x n) as triplets.
-  virtual void appendProjectiveMatrix(std::vector<Eigen::Triplet<double>>* /*triplets*/) const {}
-  /// The local step: rhs += sum_i w_i S_i^T p_i(x) (a flat d*n vector).
-  virtual void addProjectiveRhs(const VectorX& /*x*/, VectorX* /*rhs*/) {}
+  /// Optional forms for solvers other than Newton's (energy_forms.h): the constraint form
+  /// XPBD visits element by element, the projective form Projective Dynamics minimises. Null
+  /// when the term has none.
+  virtual const ConstraintForm* constraintForm() const { return nullptr; }
+  virtual ProjectiveForm* projectiveForm() { return nullptr; }
 };
 
 }  // namespace fem_cloth

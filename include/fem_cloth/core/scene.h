@@ -16,6 +16,7 @@
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/implicit.h"
 #include "fem_cloth/core/integrators/projective_dynamics.h"
+#include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/integrators/symplectic_euler.h"
 #include "fem_cloth/core/integrators/xpbd.h"
 #include "fem_cloth/core/materials/materials.h"
@@ -141,11 +142,14 @@ struct Scene {
   double duration = 2.0;  ///< s, how long tools run the scene by default
 };
 
-/// The integrator names accepted in a scene.
-const std::vector<std::string>& integratorNames();
-
-/// Range checks on every value; the message names the YAML key.
+/// Range checks on every value, then what the integrator supports (registry.h); the message
+/// names the YAML key.
 Status validateScene(const Scene& scene);
+
+/// value in [lo, hi], or an error naming `key` (unit: SI, for the message; may be empty).
+Status inRange(double value, double lo, double hi, const std::string& key, const std::string& unit);
+/// A whole number in [lo, hi], or an error naming `key`.
+Status countInRange(int value, int lo, int hi, const std::string& key);
 
 /// The obstacle a scene entry describes; the message names the key (`key` is its path).
 Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& key);

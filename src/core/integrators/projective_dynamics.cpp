@@ -3,6 +3,12 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fem_cloth/core/energy_forms.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/core/integrators/registry.h"
+#include "fem_cloth/core/integrators/step_common.h"
+
+
 namespace fem_cloth {
 
 bool ProjectiveDynamics::prepare(const StepInput& input, double h, std::string* error) {
@@ -13,13 +19,14 @@ bool ProjectiveDynamics::prepare(const StepInput& input, double h, std::string* 
     std::vector<Eigen::Triplet<double>> triplets;
     for (std::size_t t = 0; t < model.numTerms(); ++t) {
       EnergyTerm& term = model.term(t);
-      if (!term.supportsProjective()) {
+      const ProjectiveForm* form = term.projectiveForm();
+      if (form == nullptr) {
         *error = "projective_dynamics minimises the ARAP membrane (material.model: arap) and "
                  "quadratic bending on cloth (dim 3); energy term '" + term.name() +
                  "' has no projective form";
         return false;
       }
-      term.appendProjectiveMatrix(&triplets);
+      form->appendProjectiveMatrix(&triplets);
     }
     laplacian_.resize(n, n);
     laplacian_.setFromTriplets(triplets.begin(), triplets.end());
@@ -169,7 +176,7 @@ void ProjectiveDynamics::iterate(const StepInput& input, State& state, double h,
   for (int k = 0; k < count; ++k, ++iteration_) {
     // Local step: the projections, as the right-hand side sum_i w_i S_i^T p_i(x).
     rhs_.setZero(n * d);
-    for (std::size_t t = 0; t < model.numTerms(); ++t) model.term(t).addProjectiveRhs(state.x, &rhs_);
+    for (std::size_t t = 0; t < model.numTerms(); ++t) model.term(t).projectiveForm()->addProjectiveRhs(state.x, &rhs_);
     // Global step on the free vertices: A_ff x_f = b_f - A_fp x_p.
     for (Index j = 0; j < nf; ++j) {
       const Index i = freeVertices_[j];
@@ -358,7 +365,7 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
     // masses (4 N on 4e-5 kg at h = 0.1 s puts a vertex 1000 m away), where the few iterations
     // of a step cannot recover: the cloth settled where the forces do not balance.
     for (Index i = 0; i < n * d; ++i) {
-      state.x[i] = pinned[i] ? xPrev_[i] + (target[i] - xPrev_[i]) / (substeps - s) : xhat_[i];
+      state.x[i] = pinned[i] ? pinAfterSubstep(xPrev_[i], target[i], substeps - s) : xhat_[i];
     }
     Index p = 0;
     for (Index i = 0; i < n; ++i) {
@@ -382,12 +389,8 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
     report.iterations += iteration_;
     report.unbalanced.merge(unbalanced);
     state.v = velocity_;
-    if (!state.x.allFinite() || !state.v.allFinite()) {
-      report.ok = false;
-      report.error = "projective_dynamics: the state became non-finite";
-      return report;
-    }
-    if (alpha > 0.0) report.dissipated += h * alpha * state.v.dot(mass.cwiseProduct(state.v));
+    if (!stateIsFinite(state, "projective_dynamics", report)) return report;
+    addMassDampingDissipation(h, alpha, state.v, mass, report);
     for (Index i = 0; i < n * d; ++i) {
       pinForce[i] = pinned[i] ? force_[i] : 0.0;
       if (pinned[i]) report.pinWork += force_[i] * (state.x[i] - xPrev_[i]);
@@ -397,6 +400,40 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
   report.residual = report.unbalanced.largest;
   report.dtUsed = h;
   return report;
+}
+
+IntegratorEntry projectiveDynamicsEntry() {
+  IntegratorEntry e;
+  e.name = "projective_dynamics";
+  e.summary = "local/global iterations on a prefactored system (Bouaziz et al. 2014)";
+  // Every energy term must have the form w/2 |A x - p(x)|^2 with a constant A (Bouaziz et al.
+  // 2014, sec. 3): the ARAP membrane and quadratic bending on cloth in 3D. Its constant system
+  // has no place for a barrier whose Hessian changes with the contacts (and a projection after
+  // the global step would undo the convergence it is chosen for), nor for stiffness damping.
+  e.supports.materials = {"arap"};
+  e.supports.bendingModels = {"quadratic"};
+  e.supports.planar = false;
+  e.supports.obstacles = false;
+  e.supports.stiffnessDamping = false;
+  e.keys = {"iterations", "chebyshev_rho"};
+  e.read = [](const SettingsReader& r, Scene& s) -> Status {
+    FEM_CLOTH_CHECK(r.integer("iterations", s.iterations));
+    return r.number("chebyshev_rho", s.chebyshevRho);
+  };
+  e.check = [](const Scene& s) -> Status {
+    FEM_CLOTH_CHECK(countInRange(s.iterations, 1, 100'000, "integrator.iterations"));
+    if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
+      return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(s.chebyshevRho)};
+    }
+    return Status::success();
+  };
+  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+    ProjectiveDynamicsSettings settings;
+    settings.iterations = s.iterations;
+    settings.chebyshevRho = s.chebyshevRho;
+    return std::make_unique<ProjectiveDynamics>(settings);
+  };
+  return e;
 }
 
 }  // namespace fem_cloth

@@ -6,6 +6,9 @@
 
 #include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/core/integrators/registry.h"
+#include "fem_cloth/core/integrators/step_common.h"
 
 namespace fem_cloth {
 
@@ -54,6 +57,92 @@ double SymplecticEuler::stableStep(Model& model, const VectorX& x, const std::ve
   return 2.0 / omega * (std::sqrt(1.0 + zeta * zeta) - zeta);
 }
 
+int SymplecticEuler::substepsFor(double dt, int minSubsteps, StepReport& report) const {
+  const double usable = settings_.cflSafety * stableStep_;
+  int substeps = std::max(minSubsteps, 1);
+  if (dt / substeps > usable) {
+    if (!settings_.autoSubstep) {
+      std::ostringstream msg;
+      msg << "symplectic_euler: dt = " << dt << " s is above the stable step " << usable
+          << " s of this scene (" << settings_.cflSafety << " x the CFL bound " << stableStep_
+          << " s); use dt <= " << usable << " s or enable substeps";
+      report.ok = false;
+      report.retryable = false;
+      report.error = msg.str();
+      return 0;
+    }
+    substeps = static_cast<int>(std::ceil(dt / usable));
+  }
+  report.substeps = substeps;
+  if (substeps > settings_.maxSubsteps) {
+    std::ostringstream msg;
+    msg << "symplectic_euler: dt = " << dt << " s needs " << substeps
+        << " substeps (stable step " << usable << " s), more than the limit "
+        << settings_.maxSubsteps << "; use an implicit integrator for this scene";
+    report.ok = false;
+    report.retryable = false;
+    report.error = msg.str();
+    return 0;
+  }
+  return substeps;
+}
+
+bool SymplecticEuler::substepForces(const StepInput& input, const State& state, double h,
+                                    StepReport& report) {
+  Model& model = *input.model;
+  gradient_.setZero();
+  EvalRequest request;
+  request.energy = false;
+  request.gradient = &gradient_;
+  const EvalResult r = model.evaluate(state.x, request);
+  if (!r.inDomain) {
+    report.ok = false;
+    report.error = "symplectic_euler: element " + std::to_string(r.firstBadElement) +
+                   " left its material's domain (inverted or collapsed)";
+    return false;
+  }
+  // Air (air.h): its force at the substep's starting velocity, explicit like the rest.
+  if (!air_.begin(input.air, *input.externalForce, state, model.vertexMasses(), h,
+                  "symplectic_euler", report)) {
+    return false;
+  }
+  force_ = *input.gravityForce + *air_.forces() - gradient_;
+  const double beta = input.damping.stiffnessProportional;
+  if (beta > 0.0) {
+    // Stiffness-proportional damping -beta K v, with K v from a directional difference of
+    // the elastic gradient (one more gradient evaluation, paid only when beta > 0).
+    const double vnorm = state.v.norm();
+    if (vnorm > 0.0) {
+      const double eps = 1e-7 * (1.0 + state.x.norm()) / vnorm;
+      shifted_ = state.x + eps * state.v;
+      shiftedGradient_.setZero();
+      request.gradient = &shiftedGradient_;
+      model.evaluate(shifted_, request);
+      dampingForce_ = beta * (shiftedGradient_ - gradient_) / eps;
+      force_ -= dampingForce_;
+    } else {
+      dampingForce_.setZero();
+    }
+  }
+  return true;
+}
+
+void SymplecticEuler::projectContact(const StepInput& input, State& state, int s, int substeps,
+                                     double h, std::uint64_t checksBefore, StepReport& report) {
+  // Obstacles: project out to the contact distance with Coulomb friction, inelastically (the
+  // velocity follows the corrected positions; Bridson et al. 2002, section 7).
+  ContactModel& contact = *input.contact;
+  contact.beginProjection(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
+  contact.projectOntoObstacles(state.x, positionStart_, *input.pinned);
+  ContactStats stats;
+  contact.finishProjection(state.x, positionStart_, h, 1.0 + h * input.damping.massProportional, stats);
+  state.v += contact.projectionCorrection() / h;
+  report.contacts = stats.contacts;
+  report.minContactDistance = stats.minDistance;
+  report.contactWork += stats.work;
+  report.contactChecks = contact.checks() - checksBefore;
+}
+
 StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt, int minSubsteps,
                                  VectorX& pinForce) {
   StepReport report;
@@ -67,32 +156,8 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
     boundAge_ = 0;
   }
   ++boundAge_;
-  const double usable = settings_.cflSafety * stableStep_;
-  int substeps = std::max(minSubsteps, 1);
-  if (dt / substeps > usable) {
-    if (!settings_.autoSubstep) {
-      std::ostringstream msg;
-      msg << "symplectic_euler: dt = " << dt << " s is above the stable step " << usable
-          << " s of this scene (" << settings_.cflSafety << " x the CFL bound " << stableStep_
-          << " s); use dt <= " << usable << " s or enable substeps";
-      report.ok = false;
-      report.retryable = false;
-      report.error = msg.str();
-      return report;
-    }
-    substeps = static_cast<int>(std::ceil(dt / usable));
-  }
-  report.substeps = substeps;
-  if (substeps > settings_.maxSubsteps) {
-    std::ostringstream msg;
-    msg << "symplectic_euler: dt = " << dt << " s needs " << substeps
-        << " substeps (stable step " << usable << " s), more than the limit "
-        << settings_.maxSubsteps << "; use an implicit integrator for this scene";
-    report.ok = false;
-    report.retryable = false;
-    report.error = msg.str();
-    return report;
-  }
+  const int substeps = substepsFor(dt, minSubsteps, report);
+  if (substeps == 0) return report;
 
   force_.resize(n);
   gradient_.resize(n);
@@ -105,50 +170,16 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
   const double alpha = input.damping.massProportional;
   const double beta = input.damping.stiffnessProportional;
   const VectorX& target = *input.pinTarget;
-  ContactModel* const contact = input.contact;
-  const std::uint64_t checksBefore = contact != nullptr ? contact->checks() : 0;
+  const std::uint64_t checksBefore = input.contact != nullptr ? input.contact->checks() : 0;
   for (int s = 0; s < substeps; ++s) {
-    gradient_.setZero();
-    EvalRequest request;
-    request.energy = false;
-    request.gradient = &gradient_;
-    const EvalResult r = model.evaluate(state.x, request);
-    if (!r.inDomain) {
-      report.ok = false;
-      report.error = "symplectic_euler: element " + std::to_string(r.firstBadElement) +
-                     " left its material's domain (inverted or collapsed)";
-      return report;
-    }
-    // Air (air.h): its force at the substep's starting velocity, explicit like the rest.
-    if (!air_.begin(input.air, *input.externalForce, state, model.vertexMasses(), h,
-                    "symplectic_euler", report)) {
-      return report;
-    }
-    force_ = *input.gravityForce + *air_.forces() - gradient_;
-    if (beta > 0.0) {
-      // Stiffness-proportional damping -beta K v, with K v from a directional difference of
-      // the elastic gradient (one more gradient evaluation, paid only when beta > 0).
-      const double vnorm = state.v.norm();
-      if (vnorm > 0.0) {
-        const double eps = 1e-7 * (1.0 + state.x.norm()) / vnorm;
-        shifted_ = state.x + eps * state.v;
-        shiftedGradient_.setZero();
-        request.gradient = &shiftedGradient_;
-        model.evaluate(shifted_, request);
-        dampingForce_ = beta * (shiftedGradient_ - gradient_) / eps;
-        force_ -= dampingForce_;
-      } else {
-        dampingForce_.setZero();
-      }
-    }
+    if (!substepForces(input, state, h, report)) return report;
     velocityStart_ = state.v;
-    if (contact != nullptr) positionStart_ = state.x;
-    const double remaining = static_cast<double>(substeps - s);
+    if (input.contact != nullptr) positionStart_ = state.x;
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) {
-        // Linear interpolation to the end-of-step target; the pin supplies what makes the
-        // vertex follow it, m dv/h - f, and does that work along the substep's displacement.
-        const double xNew = state.x[i] + (target[i] - state.x[i]) / remaining;
+        // Along the pin's path to its end-of-step target; the pin supplies what makes the vertex
+        // follow it, m dv/h - f, and does that work along the substep's displacement.
+        const double xNew = pinAfterSubstep(state.x[i], target[i], substeps - s);
         state.v[i] = (xNew - state.x[i]) / h;
         report.pinWork += (mass[i] * (state.v[i] - velocityStart_[i]) / h - force_[i]) * (xNew - state.x[i]);
         state.x[i] = xNew;
@@ -157,29 +188,11 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
         state.x[i] += h * state.v[i];
       }
     }
-    if (contact != nullptr) {
-      // Obstacles: project out to the contact distance with Coulomb friction, inelastically (the
-      // velocity follows the corrected positions; Bridson et al. 2002, section 7).
-      contact->beginProjection(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
-      contact->projectOntoObstacles(state.x, positionStart_, pinned);
-      ContactStats stats;
-      contact->finishProjection(state.x, positionStart_, h, 1.0 + h * alpha, stats);
-      state.v += contact->projectionCorrection() / h;
-      report.contacts = stats.contacts;
-      report.minContactDistance = stats.minDistance;
-      report.contactWork += stats.work;
-      report.contactChecks = contact->checks() - checksBefore;
-    }
-    if (alpha > 0.0) {
-      report.dissipated += h * alpha * state.v.dot(mass.cwiseProduct(state.v));
-    }
+    if (input.contact != nullptr) projectContact(input, state, s, substeps, h, checksBefore, report);
+    addMassDampingDissipation(h, alpha, state.v, mass, report);
     if (beta > 0.0) report.dissipated += h * state.v.dot(dampingForce_);
     report.airWork += air_.work(state.x);
-    if (!state.x.allFinite() || !state.v.allFinite()) {
-      report.ok = false;
-      report.error = "symplectic_euler: the state became non-finite";
-      return report;
-    }
+    if (!stateIsFinite(state, "symplectic_euler", report)) return report;
     if (s + 1 == substeps) {
       for (Index i = 0; i < n; ++i) {
         pinForce[i] = pinned[i] ? mass[i] * (state.v[i] - velocityStart_[i]) / h - force_[i] : 0.0;
@@ -205,6 +218,32 @@ double SymplecticEuler::energyTolerance() const {
   // re-estimates the stable step.
   const double s = std::min(stepRatio_, 0.9);
   return std::max(kEnergyTolerance, 2.0 * s / (1.0 - s));
+}
+
+IntegratorEntry symplecticEulerEntry() {
+  IntegratorEntry e;
+  e.name = "symplectic_euler";
+  e.summary = "explicit; substeps itself below its CFL bound (cheap steps, many of them when stiff)";
+  // Obstacles by projection after each substep; self-contact needs the implicit barrier.
+  e.supports.selfContact = false;
+  e.keys = {"auto_substep", "cfl_safety"};
+  e.read = [](const SettingsReader& r, Scene& s) -> Status {
+    FEM_CLOTH_CHECK(r.boolean("auto_substep", s.autoSubstep));
+    return r.number("cfl_safety", s.cflSafety);
+  };
+  e.check = [](const Scene& s) -> Status {
+    if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
+      return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(s.cflSafety)};
+    }
+    return Status::success();
+  };
+  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+    SymplecticEulerSettings settings;
+    settings.autoSubstep = s.autoSubstep;
+    settings.cflSafety = s.cflSafety;
+    return std::make_unique<SymplecticEuler>(settings);
+  };
+  return e;
 }
 
 }  // namespace fem_cloth

@@ -6,19 +6,23 @@
 #include <limits>
 
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/energy_forms.h"
+#include "fem_cloth/core/scene.h"
+#include "fem_cloth/core/integrators/registry.h"
+#include "fem_cloth/core/integrators/step_common.h"
 
 namespace fem_cloth {
 
 namespace {
 
 using Jacobian = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor,
-                               EnergyTerm::kMaxConstraintsPerElement, EnergyTerm::kMaxElementDofs>;
+                               ConstraintForm::kMaxConstraintsPerElement, ConstraintForm::kMaxElementDofs>;
 using Small = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0,
-                            EnergyTerm::kMaxConstraintsPerElement,
-                            EnergyTerm::kMaxConstraintsPerElement>;
+                            ConstraintForm::kMaxConstraintsPerElement,
+                            ConstraintForm::kMaxConstraintsPerElement>;
 using SmallVector =
-    Eigen::Matrix<double, Eigen::Dynamic, 1, 0, EnergyTerm::kMaxConstraintsPerElement, 1>;
-using DofVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, EnergyTerm::kMaxElementDofs, 1>;
+    Eigen::Matrix<double, Eigen::Dynamic, 1, 0, ConstraintForm::kMaxConstraintsPerElement, 1>;
+using DofVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, ConstraintForm::kMaxElementDofs, 1>;
 
 }  // namespace
 
@@ -28,7 +32,7 @@ void Xpbd::cacheStiffness(Model& model) {
   stiffness_.assign(model.numTerms(), {});
   applied_.assign(model.numTerms(), {});
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int k = term.constraintsPerElement();
     stiffness_[t].resize(static_cast<std::size_t>(term.numElements()) * k * k);
     applied_[t].resize(static_cast<std::size_t>(term.numElements()) * term.verticesPerElement() * model.dim());
@@ -51,9 +55,9 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
   const int d = model.dim();
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
     const EnergyTerm& term = model.term(t);
-    if (!term.supportsConstraints() ||
-        term.constraintsPerElement() > EnergyTerm::kMaxConstraintsPerElement ||
-        term.verticesPerElement() * d > EnergyTerm::kMaxElementDofs) {
+    const ConstraintForm* form = term.constraintForm();
+    if (form == nullptr || form->constraintsPerElement() > ConstraintForm::kMaxConstraintsPerElement ||
+        form->verticesPerElement() * d > ConstraintForm::kMaxElementDofs) {
       report.ok = false;
       report.retryable = false;
       report.error = "xpbd: energy term '" + term.name() +
@@ -94,7 +98,7 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
     // interpolated targets.
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) {
-        state.x[i] += (target[i] - state.x[i]) / (substeps - s);
+        state.x[i] = pinAfterSubstep(state.x[i], target[i], substeps - s);
       } else {
         const double f = (*input.gravityForce)[i] + (*input.externalForce)[i];
         state.v[i] = (state.v[i] + h * f / mass[i]) / (1.0 + h * input.damping.massProportional);
@@ -135,15 +139,8 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
       velocity_ = (state.x - xStart_) / h;
     }
     state.v = velocity_;
-    if (!state.x.allFinite() || !state.v.allFinite()) {
-      report.ok = false;
-      report.error = "xpbd: the state became non-finite";
-      return report;
-    }
-    if (input.damping.massProportional > 0.0) {
-      report.dissipated +=
-          h * input.damping.massProportional * state.v.dot(mass.cwiseProduct(state.v));
-    }
+    if (!stateIsFinite(state, "xpbd", report)) return report;
+    addMassDampingDissipation(h, input.damping.massProportional, state.v, mass, report);
     // The pins balance the elastic force on their vertices (from the residual's pass) and also
     // carry their own vertices' weight, commanded forces and inertia; they do work along their
     // displacement in the substep.
@@ -175,7 +172,7 @@ void Xpbd::warmStart(Model& model, VectorX& x, double h, double dampedMass) {
   lambdaDampedMass_ = dampedMass;
   const int d = model.dim();
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int m = term.verticesPerElement() * d;
     for (Index e = 0; e < term.numElements(); ++e) {
       double* applied = &applied_[t][static_cast<std::size_t>(e) * m];
@@ -197,7 +194,7 @@ bool Xpbd::sweep(Model& model, VectorX& x, double h, double betaH, StepReport& r
   SmallVector C, rhs, lambda;
   DofVector w, dx, applied;
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int k = term.constraintsPerElement();
     const int verts = term.verticesPerElement();
     const int m = verts * d;
@@ -209,7 +206,7 @@ bool Xpbd::sweep(Model& model, VectorX& x, double h, double betaH, StepReport& r
       const Index* v = term.elementVertices(e);
       if (!term.elementConstraints(e, x, C.data(), G.data())) {
         report.ok = false;
-        report.error = "xpbd: element " + std::to_string(e) + " of " + term.name() +
+        report.error = "xpbd: element " + std::to_string(e) + " of " + model.term(t).name() +
                        " left its material's domain (J <= 0)";
         return false;
       }
@@ -275,7 +272,7 @@ ForceResidual Xpbd::residual(const StepInput& input, const VectorX& x, double h,
   SmallVector C, f;
   DofVector dxElement;
   for (std::size_t t = 0; t < model.numTerms(); ++t) {
-    const EnergyTerm& term = model.term(t);
+    const ConstraintForm& term = *model.term(t).constraintForm();
     const int k = term.constraintsPerElement();
     const int verts = term.verticesPerElement();
     G.resize(k, verts * d);
@@ -335,6 +332,25 @@ void Xpbd::finishContactSubstep(ContactModel& contact, VectorX& x, double h, dou
   report.minContactDistance = stats.minDistance;
   report.contactWork += stats.work;
   report.contactChecks += contact.checks() - contactChecksBefore_;
+}
+
+IntegratorEntry xpbdEntry() {
+  IntegratorEntry e;
+  e.name = "xpbd";
+  e.summary = "extended position-based dynamics on the FEM energy (Gauss-Seidel over elements)";
+  // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge bending
+  // element reads 12 vertices and has no constraint form.
+  e.supports.bendingModels = {"quadratic", "dihedral"};
+  e.supports.selfContact = false;  // obstacles by projection after every sweep
+  e.keys = {"iterations"};
+  e.read = [](const SettingsReader& r, Scene& s) { return r.integer("iterations", s.iterations); };
+  e.check = [](const Scene& s) { return countInRange(s.iterations, 1, 100'000, "integrator.iterations"); };
+  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+    XpbdSettings settings;
+    settings.iterations = s.iterations;
+    return std::make_unique<Xpbd>(settings);
+  };
+  return e;
 }
 
 }  // namespace fem_cloth

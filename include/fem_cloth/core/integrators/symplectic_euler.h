@@ -50,6 +50,16 @@ class SymplecticEuler final : public Integrator {
   double currentStableStep() const { return stableStep_; }
 
  private:
+  /// The substeps dt takes at the current bound: at least minSubsteps, more to stay within
+  /// cflSafety x the bound; 0 (report failed, not retryable) if it refuses the step.
+  int substepsFor(double dt, int minSubsteps, StepReport& report) const;
+  /// force_ = gravity + air - dE/dx (- beta K v into dampingForce_) at the substep's start;
+  /// false (report.error set) if an element left its domain or the air failed.
+  bool substepForces(const StepInput& input, const State& state, double h, StepReport& report);
+  /// The obstacles' projection with friction after substep s (contact only).
+  void projectContact(const StepInput& input, State& state, int s, int substeps, double h,
+                      std::uint64_t checksBefore, StepReport& report);
+
   SymplecticEulerSettings settings_;
   double stableStep_ = 0.0;
   double stepRatio_ = 0.0;  // the last step's substep over the stable step

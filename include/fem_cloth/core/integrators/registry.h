@@ -1,0 +1,95 @@
+// The integrator registry: every time integrator a scene can name (`integrator.name`), with
+// what it supports, the scene keys it reads and how it is built.
+//
+// Scene validation (which integrator accepts which scene), `fem_cloth_sim --help`, the report's
+// "n/a" verdict and every refusal message are derived from these entries, so a rule such as
+// "projective dynamics takes the ARAP membrane only" is written once, here, as a capability.
+//
+// The entries are listed explicitly in registry.cpp, each defined next to its integrator (in
+// the integrator's own .cpp). Self-registration by static initialisers would need the core to
+// be a shared library or every caller to reference each integrator's object file: in a static
+// libfem_cloth_core.a the linker drops an object nothing refers to, and its registration with
+// it, silently. The explicit list also fixes the order (the report's rows follow it).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/integrators/integrator.h"
+
+namespace fem_cloth {
+
+struct Scene;
+
+/// What an integrator can simulate. A scene that asks for more is refused when it is loaded,
+/// naming the key and the integrators that would take it.
+struct IntegratorCapabilities {
+  /// material.model values it simulates; empty: every material.
+  std::vector<std::string> materials;
+  /// bending.model values it simulates (when bending.stiffness > 0); empty: every model.
+  std::vector<std::string> bendingModels;
+  bool planar = true;            ///< 2D meshes (mesh.dim 2)
+  bool obstacles = true;         ///< contact with obstacles
+  bool selfContact = false;      ///< contact.self_collision
+  bool stiffnessDamping = true;  ///< damping.stiffness > 0
+  bool needsHessian = false;     ///< assembles the model's Hessian (implicit Newton solves)
+};
+
+/// The keys of one map of a scene (here `integrator`) as the IO layer reads them: the core
+/// reads no YAML itself. Each reader leaves `out` untouched when the key is absent and returns
+/// an error naming the key when its value has the wrong type.
+class SettingsReader {
+ public:
+  virtual ~SettingsReader() = default;
+  virtual Status number(const std::string& key, double& out) const = 0;
+  virtual Status integer(const std::string& key, int& out) const = 0;
+  virtual Status boolean(const std::string& key, bool& out) const = 0;
+  virtual Status text(const std::string& key, std::string& out) const = 0;
+  /// The full path of a key, for messages ("integrator.linear_solver").
+  virtual std::string where(const std::string& key) const = 0;
+};
+
+struct IntegratorEntry {
+  std::string name;     ///< integrator.name
+  std::string summary;  ///< one line for --help and the docs
+  IntegratorCapabilities supports;
+  /// Its own keys under `integrator` (besides name, dt, substeps and max_retries, which every
+  /// integrator reads); integrators may share a key (`iterations`).
+  std::vector<std::string> keys;
+  /// Reads those keys into the scene.
+  std::function<Status(const SettingsReader&, Scene&)> read;
+  /// Range checks on those keys, naming them. Run for every entry whatever the scene's
+  /// integrator, so that a bad value is refused even while another integrator is chosen.
+  std::function<Status(const Scene&)> check;
+  /// The integrator for a validated scene.
+  std::function<std::unique_ptr<Integrator>(const Scene&)> make;
+};
+
+/// Every integrator, in a fixed order (symplectic_euler, backward_euler, bdf2, xpbd,
+/// projective_dynamics).
+const std::vector<IntegratorEntry>& integratorRegistry();
+
+/// The integrator names accepted in a scene, in registry order.
+const std::vector<std::string>& integratorNames();
+
+/// The entry called `name`, or an error listing the known names.
+Expected<const IntegratorEntry*> findIntegrator(const std::string& name);
+
+/// The keys under `integrator` that some integrator reads: the common ones, then each entry's
+/// own, each once.
+std::vector<std::string> integratorKeys();
+
+/// Why the scene's integrator cannot simulate the scene (material, bending model, planar mesh,
+/// obstacles, self-contact, stiffness damping), naming the key, what the integrator supports
+/// and which integrators would take the scene; success if it can. The scene's integrator must
+/// be a known name.
+Status checkIntegratorSupports(const Scene& scene);
+
+/// The capabilities as a short text for --help: "materials: arap; bending: quadratic; 3D only;
+/// no contact".
+std::string capabilitiesText(const IntegratorCapabilities& supports);
+
+}  // namespace fem_cloth

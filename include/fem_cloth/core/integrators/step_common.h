@@ -1,0 +1,36 @@
+// Pieces of a substep that every stepper without a Newton solve writes the same way: pins moved
+// along their path, the energy mass damping removes, and the refusal of a non-finite state.
+// Inline so that each stepper's arithmetic is exactly what it was when written out in place.
+#pragma once
+
+#include <string>
+
+#include "fem_cloth/core/integrators/integrator.h"
+
+namespace fem_cloth {
+
+/// A pinned DOF at the end of a substep: it moves on the straight line from `x` to its
+/// end-of-step `target`, 1 / `remaining` of the way (`remaining` counts the substeps left,
+/// this one included), so that it reaches the target at the end of the step (integrator.h).
+inline double pinAfterSubstep(double x, double target, int remaining) {
+  return x + (target - x) / remaining;
+}
+
+/// Adds to the report the energy mass-proportional damping -alpha M v removes in a substep of
+/// size h ending at velocity v: its dissipation rate alpha v^T M v times h (J). Nothing when
+/// alpha is zero.
+inline void addMassDampingDissipation(double h, double alpha, const VectorX& v, const VectorX& mass,
+                                      StepReport& report) {
+  if (alpha > 0.0) report.dissipated += h * alpha * v.dot(mass.cwiseProduct(v));
+}
+
+/// True when positions and velocities are finite; otherwise the report fails, saying which
+/// integrator lost the state (the caller returns it and the simulator restores the state).
+inline bool stateIsFinite(const State& state, const std::string& integrator, StepReport& report) {
+  if (state.x.allFinite() && state.v.allFinite()) return true;
+  report.ok = false;
+  report.error = integrator + ": the state became non-finite";
+  return false;
+}
+
+}  // namespace fem_cloth

@@ -1,0 +1,136 @@
+#include "fem_cloth/core/integrators/registry.h"
+
+#include <algorithm>
+
+#include "fem_cloth/core/scene.h"
+
+namespace fem_cloth {
+
+// Each entry is defined in its integrator's .cpp (implicit_registration.cpp for the implicit
+// pair); this list is the only other place that names them (see registry.h for why a list).
+IntegratorEntry symplecticEulerEntry();
+IntegratorEntry backwardEulerEntry();
+IntegratorEntry bdf2Entry();
+IntegratorEntry xpbdEntry();
+IntegratorEntry projectiveDynamicsEntry();
+
+const std::vector<IntegratorEntry>& integratorRegistry() {
+  static const std::vector<IntegratorEntry> entries = {
+      symplecticEulerEntry(), backwardEulerEntry(), bdf2Entry(), xpbdEntry(),
+      projectiveDynamicsEntry()};
+  return entries;
+}
+
+const std::vector<std::string>& integratorNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> out;
+    for (const IntegratorEntry& e : integratorRegistry()) out.push_back(e.name);
+    return out;
+  }();
+  return names;
+}
+
+namespace {
+
+std::string joinNames(const std::vector<std::string>& names) {
+  std::string out;
+  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+bool listed(const std::vector<std::string>& allowed, const std::string& value) {
+  return allowed.empty() || std::find(allowed.begin(), allowed.end(), value) != allowed.end();
+}
+
+/// One thing a scene may ask of its integrator: the key that asks, whether the scene asks, and
+/// whether an integrator with these capabilities gives it.
+struct Requirement {
+  std::string key;
+  std::function<bool(const Scene&)> asked;
+  std::function<bool(const IntegratorCapabilities&, const Scene&)> given;
+  std::string what;  ///< "material 'stvk'", filled in for the scene
+  std::string supported;  ///< "; supported: arap" (empty for yes/no capabilities)
+  std::string hint;       ///< how to satisfy the integrator instead
+};
+
+int sceneDim(const Scene& s) { return s.meshType == "grid" ? s.grid.dim : s.dim; }
+
+std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabilities& c) {
+  const std::string bendingDefault = s.bendingModel == "midedge" ? " (the default)" : "";
+  const auto firstOf = [](const std::vector<std::string>& v) { return v.empty() ? "" : v.front(); };
+  return {
+      {"material.model", [](const Scene&) { return true; },
+       [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.materials, x.materialModel); },
+       "material '" + s.materialModel + "'", "; supported: " + joinNames(c.materials),
+       "set material.model: " + firstOf(c.materials)},
+      {"mesh.dim", [](const Scene& x) { return sceneDim(x) == 2; },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.planar; },
+       "planar meshes (mesh.dim 2); it simulates cloth (dim 3) only", "", "set mesh.dim: 3"},
+      {"bending.model", [](const Scene& x) { return x.bendingStiffness > 0.0; },
+       [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.bendingModels, x.bendingModel); },
+       "bending model '" + s.bendingModel + "'" + bendingDefault,
+       "; supported: " + joinNames(c.bendingModels), "set bending.model: " + firstOf(c.bendingModels)},
+      {"damping.stiffness", [](const Scene& x) { return x.damping.stiffnessProportional > 0.0; },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.stiffnessDamping; },
+       "stiffness damping", "", "set it to 0 and use damping.mass"},
+      {"contact.self_collision", [](const Scene& x) { return x.contact.selfCollision; },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.selfContact; }, "self-contact",
+       "", "turn it off"},
+      {"obstacles", [](const Scene& x) { return !x.obstacles.empty(); },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.obstacles; },
+       "contact with obstacles", "", "remove the obstacles"},
+  };
+}
+
+}  // namespace
+
+Expected<const IntegratorEntry*> findIntegrator(const std::string& name) {
+  for (const IntegratorEntry& e : integratorRegistry()) {
+    if (e.name == name) return &e;
+  }
+  return Error{"unknown integrator '" + printableText(name, 100) + "' (known: " +
+               joinNames(integratorNames()) + ")"};
+}
+
+std::vector<std::string> integratorKeys() {
+  std::vector<std::string> keys = {"name", "dt", "substeps", "max_retries"};
+  for (const IntegratorEntry& e : integratorRegistry()) {
+    for (const std::string& k : e.keys) {
+      if (std::find(keys.begin(), keys.end(), k) == keys.end()) keys.push_back(k);
+    }
+  }
+  return keys;
+}
+
+Status checkIntegratorSupports(const Scene& s) {
+  Expected<const IntegratorEntry*> found = findIntegrator(s.integrator);
+  if (!found) return Error{"integrator.name: " + found.error()};
+  const IntegratorEntry& entry = **found;
+  for (const Requirement& r : requirements(s, entry.supports)) {
+    if (!r.asked(s) || r.given(entry.supports, s)) continue;
+    std::vector<std::string> others;
+    for (const IntegratorEntry& e : integratorRegistry()) {
+      if (r.given(e.supports, s)) others.push_back(e.name);
+    }
+    const std::string choose = others.empty() ? "" : ", or choose an integrator that does: " + joinNames(others);
+    return Error{r.key + ": integrator " + entry.name + " does not support " + r.what + r.supported +
+                 " (" + r.hint + choose + ")"};
+  }
+  return Status::success();
+}
+
+std::string capabilitiesText(const IntegratorCapabilities& c) {
+  std::vector<std::string> parts;
+  parts.push_back("materials: " + (c.materials.empty() ? std::string("all") : joinNames(c.materials)));
+  parts.push_back("bending: " + (c.bendingModels.empty() ? std::string("all") : joinNames(c.bendingModels)));
+  parts.push_back(c.planar ? "2D and 3D" : "3D only");
+  parts.push_back(std::string(c.obstacles ? "obstacles" : "no obstacles") +
+                  (c.selfContact ? ", self-contact" : ""));
+  if (!c.stiffnessDamping) parts.push_back("mass damping only");
+  if (c.needsHessian) parts.push_back("assembles Hessians");
+  std::string out;
+  for (const std::string& p : parts) out += (out.empty() ? "" : "; ") + p;
+  return out;
+}
+
+}  // namespace fem_cloth
