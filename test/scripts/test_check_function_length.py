@@ -184,5 +184,21 @@ class Program(unittest.TestCase):
         self.assertIn(missing, result.stderr)
 
 
+
+class ProjectSources(unittest.TestCase):
+    """The project's limit (issue 13): no function in src/ longer than 120 lines."""
+
+    def test_no_function_in_src_is_longer_than_120_lines(self):
+        src = os.path.join(os.path.dirname(SCRIPT), "..", "src")
+        result = subprocess.run(["/usr/bin/python3", SCRIPT, "--max", "120", src],
+                                capture_output=True, text=True)
+        self.assertEqual(result.returncode, 0,
+                         "functions over 120 lines (split them):\n" + result.stdout + result.stderr)
+        # The checker saw the sources at all: it lists a function known to be there.
+        listed = subprocess.run(["/usr/bin/python3", SCRIPT, "--max", "120", "--list",
+                                 os.path.join(src, "core", "simulator.cpp")],
+                                capture_output=True, text=True)
+        self.assertIn("Simulator::step", listed.stdout)
+
 if __name__ == "__main__":
     unittest.main()
