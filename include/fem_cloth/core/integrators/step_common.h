@@ -25,11 +25,12 @@ inline void addMassDampingDissipation(double h, double alpha, const VectorX& v, 
 }
 
 /// True when positions and velocities are finite; otherwise the report fails, saying which
-/// integrator lost the state (the caller returns it and the simulator restores the state).
-inline bool stateIsFinite(const State& state, const std::string& integrator, StepReport& report) {
+/// integrator lost the state (the caller returns it and the simulator restores the state). The
+/// name is a C string, made into a std::string only on failure: steps allocate nothing.
+inline bool stateIsFinite(const State& state, const char* integrator, StepReport& report) {
   if (state.x.allFinite() && state.v.allFinite()) return true;
   report.ok = false;
-  report.error = integrator + ": the state became non-finite";
+  report.error = std::string(integrator) + ": the state became non-finite";
   return false;
 }
 
