@@ -7,6 +7,7 @@
 
 #include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/integrators/step_common.h"
 
 namespace fem_cloth {
 
@@ -52,8 +53,7 @@ StepReport ImplicitIntegrator::step(const StepInput& input, State& state, double
     // are the two after it, whose histories (x_, v_) still hold the impact (State::impact).
     state.beginSubstep();
     const bool watchImpact = scheme_ == ImplicitScheme::Bdf2 && input.contact != nullptr;
-    const bool bdf2Substep =
-        watchImpact && state.hasHistory() && std::abs(state.historyDt - h) <= 1e-12 * h;
+    const bool bdf2Substep = watchImpact && state.hasHistoryFor(h);
     const StepReport before = report;
     bool ok = substep(input, state, h, substeps - s, from, to, pinForce, report);
     if (ok && watchImpact && report.contacts > state.contacts) {
@@ -139,8 +139,8 @@ bool ImplicitIntegrator::startingPoint(const StepInput& input, const State& stat
   // the barrier (each one only doubles a distance that is too small).
   x.resize(n);
   for (Index i = 0; i < n; ++i) {
-    const double target = state.x[i] + ((*input.pinTarget)[i] - state.x[i]) / remaining;
-    x[i] = pinned[i] ? target : xhat[i] + c2 * force[i] / mass[i];
+    x[i] = pinned[i] ? pinAfterSubstep(state.x[i], (*input.pinTarget)[i], remaining)
+                     : xhat[i] + c2 * force[i] / mass[i];
   }
   if (contact_ != nullptr) {
     xTrial_ = x;

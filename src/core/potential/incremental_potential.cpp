@@ -10,8 +10,7 @@ void IncrementalPotential::beginSubstep(ImplicitScheme scheme, const State& stat
                                         const std::vector<char>& pinned, double fractionStart,
                                         double fractionEnd) {
   mass_ = &mass;
-  bdf2_ = scheme == ImplicitScheme::Bdf2 && state.hasHistory() &&
-          std::abs(state.historyDt - h) <= 1e-12 * h;
+  bdf2_ = scheme == ImplicitScheme::Bdf2 && state.hasHistoryFor(h);
   frame_ = SubstepFrame{};
   if (bdf2_) {
     xhat_ = (4.0 / 3.0) * state.x - (1.0 / 3.0) * state.xPrevious +

@@ -5,6 +5,7 @@
 
 #include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/integrators/step_common.h"
 
 namespace fem_cloth {
 
@@ -71,7 +72,7 @@ bool MassDampingTerm::vertexDerivatives(const VectorX& x, Index vertex,
 }
 
 double MassDampingTerm::dissipated(const VectorX& v, double h) const {
-  return h * alpha_ * v.dot(mass_->cwiseProduct(v));
+  return massDampingDissipation(h, alpha_, v, *mass_);
 }
 
 // --- Stiffness damping -------------------------------------------------------------------------

@@ -5,6 +5,7 @@
 // solve; they are never stiff springs.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -47,6 +48,8 @@ struct State {
   int contacts = 0;  ///< contacts at the end of the last substep (0 without contact handling)
   int unsmoothSubsteps = 0;  ///< substeps still to start without history (after an impact)
   bool hasHistory() const { return xPrevious.size() == x.size() && historyDt > 0.0; }
+  /// A history a BDF2 substep of size h can use: there is one, and it is h apart.
+  bool hasHistoryFor(double h) const { return hasHistory() && std::abs(historyDt - h) <= 1e-12 * h; }
   void clearHistory() {
     xPrevious.resize(0);
     vPrevious.resize(0);

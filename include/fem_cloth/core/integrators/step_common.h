@@ -1,6 +1,6 @@
-// Pieces of a substep that every stepper without a Newton solve writes the same way: pins moved
-// along their path, the energy mass damping removes, and the refusal of a non-finite state.
-// Inline so that each stepper's arithmetic is exactly what it was when written out in place.
+// Pieces of a substep that every stepper shares: pins moved along their path, the energy mass
+// damping removes (the implicit steppers' MassDampingTerm too), and the refusal of a non-finite
+// state. Inline so that each stepper's arithmetic is exactly what it was when written out in place.
 #pragma once
 
 #include <string>
@@ -16,12 +16,16 @@ inline double pinAfterSubstep(double x, double target, int remaining) {
   return x + (target - x) / remaining;
 }
 
-/// Adds to the report the energy mass-proportional damping -alpha M v removes in a substep of
-/// size h ending at velocity v: its dissipation rate alpha v^T M v times h (J). Nothing when
-/// alpha is zero.
+/// The energy mass-proportional damping -alpha M v removes in a substep of size h ending at
+/// velocity v: its dissipation rate alpha v^T M v times h (J).
+inline double massDampingDissipation(double h, double alpha, const VectorX& v, const VectorX& mass) {
+  return h * alpha * v.dot(mass.cwiseProduct(v));
+}
+
+/// Adds massDampingDissipation to the report; nothing when alpha is zero.
 inline void addMassDampingDissipation(double h, double alpha, const VectorX& v, const VectorX& mass,
                                       StepReport& report) {
-  if (alpha > 0.0) report.dissipated += h * alpha * v.dot(mass.cwiseProduct(v));
+  if (alpha > 0.0) report.dissipated += massDampingDissipation(h, alpha, v, mass);
 }
 
 /// True when positions and velocities are finite; otherwise the report fails, saying which
