@@ -16,12 +16,6 @@ namespace fem_cloth {
 
 namespace {
 
-std::string joinKeys(const std::vector<std::string>& keys) {
-  std::string out;
-  for (const std::string& k : keys) out += (out.empty() ? "" : ", ") + k;
-  return out;
-}
-
 std::string describe(const YAML::Node& node) {
   if (!node.IsDefined() || node.IsNull()) return "no value";
   if (node.IsScalar()) return "'" + printableText(node.Scalar(), 100) + "'";
@@ -53,7 +47,7 @@ class MapReader final : public SettingsReader {
       }
       const std::string key = kv.first.Scalar();
       if (std::find(known_.begin(), known_.end(), key) == known_.end()) {
-        return Error{"unknown key '" + where(printableText(key, 100)) + "' (known here: " + joinKeys(known_) + ")"};
+        return Error{"unknown key '" + where(printableText(key, 100)) + "' (known here: " + commaList(known_) + ")"};
       }
       if (!seen.insert(key).second) {
         return Error{"key '" + where(key) + "' is given more than once"};
@@ -412,7 +406,7 @@ Expected<YAML::Node> withMaterialPreset(const YAML::Node& document, const std::s
       if (f.path().extension() == ".yaml") known.push_back(f.path().stem().string());
     }
     std::sort(known.begin(), known.end());
-    return Error{"material.preset: no preset '" + value + "' (" + path.string() + "; known: " + joinKeys(known) + ")"};
+    return Error{"material.preset: no preset '" + value + "' (" + path.string() + "; known: " + commaList(known) + ")"};
   }
   // Bounded like the scene file itself: a preset naming /dev/zero or a binary is one error.
   Expected<std::string> text = readTextFile(path.string(), kMaxSceneFileBytes, "material preset file");

@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 namespace fem_cloth {
 
@@ -30,6 +31,13 @@ inline std::string printableText(const std::string& text, std::size_t maxLength 
     out += (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) ? '?' : c;
   }
   return text.size() > maxLength ? out + "..." : out;
+}
+
+/// A list as messages show it: "a, b, c" (the known keys, the supported integrators).
+inline std::string commaList(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& item : items) out += (out.empty() ? "" : ", ") + item;
+  return out;
 }
 
 template <typename T>

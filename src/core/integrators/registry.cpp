@@ -32,12 +32,6 @@ const std::vector<std::string>& integratorNames() {
 
 namespace {
 
-std::string joinNames(const std::vector<std::string>& names) {
-  std::string out;
-  for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out;
-}
-
 bool listed(const std::vector<std::string>& allowed, const std::string& value) {
   return allowed.empty() || std::find(allowed.begin(), allowed.end(), value) != allowed.end();
 }
@@ -61,7 +55,7 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
   return {
       {"material.model", [](const Scene&) { return true; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.materials, x.materialModel); },
-       "material '" + s.materialModel + "'", "; supported: " + joinNames(c.materials),
+       "material '" + s.materialModel + "'", "; supported: " + commaList(c.materials),
        "set material.model: " + firstOf(c.materials)},
       {"mesh.dim", [](const Scene& x) { return sceneDim(x) == 2; },
        [](const IntegratorCapabilities& k, const Scene&) { return k.planar; },
@@ -69,7 +63,7 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
       {"bending.model", [](const Scene& x) { return x.bendingStiffness > 0.0; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.bendingModels, x.bendingModel); },
        "bending model '" + s.bendingModel + "'" + bendingDefault,
-       "; supported: " + joinNames(c.bendingModels), "set bending.model: " + firstOf(c.bendingModels)},
+       "; supported: " + commaList(c.bendingModels), "set bending.model: " + firstOf(c.bendingModels)},
       {"damping.stiffness", [](const Scene& x) { return x.damping.stiffnessProportional > 0.0; },
        [](const IntegratorCapabilities& k, const Scene&) { return k.stiffnessDamping; },
        "stiffness damping", "", "set it to 0 and use damping.mass"},
@@ -89,7 +83,7 @@ Expected<const IntegratorEntry*> findIntegrator(const std::string& name) {
     if (e.name == name) return &e;
   }
   return Error{"unknown integrator '" + printableText(name, 100) + "' (known: " +
-               joinNames(integratorNames()) + ")"};
+               commaList(integratorNames()) + ")"};
 }
 
 std::vector<std::string> integratorKeys() {
@@ -112,7 +106,7 @@ Status checkIntegratorSupports(const Scene& s) {
     for (const IntegratorEntry& e : integratorRegistry()) {
       if (r.given(e.supports, s)) others.push_back(e.name);
     }
-    const std::string choose = others.empty() ? "" : ", or choose an integrator that does: " + joinNames(others);
+    const std::string choose = others.empty() ? "" : ", or choose an integrator that does: " + commaList(others);
     return Error{r.key + ": integrator " + entry.name + " does not support " + r.what + r.supported +
                  " (" + r.hint + choose + ")"};
   }
@@ -121,8 +115,8 @@ Status checkIntegratorSupports(const Scene& s) {
 
 std::string capabilitiesText(const IntegratorCapabilities& c) {
   std::vector<std::string> parts;
-  parts.push_back("materials: " + (c.materials.empty() ? std::string("all") : joinNames(c.materials)));
-  parts.push_back("bending: " + (c.bendingModels.empty() ? std::string("all") : joinNames(c.bendingModels)));
+  parts.push_back("materials: " + (c.materials.empty() ? std::string("all") : commaList(c.materials)));
+  parts.push_back("bending: " + (c.bendingModels.empty() ? std::string("all") : commaList(c.bendingModels)));
   parts.push_back(c.planar ? "2D and 3D" : "3D only");
   parts.push_back(std::string(c.obstacles ? "obstacles" : "no obstacles") +
                   (c.selfContact ? ", self-contact" : ""));
