@@ -15,20 +15,23 @@ double placed(const TimelineSegment& s, double dt) {
   return std::isnan(s.time) ? static_cast<double>(s.step) * dt : s.time;
 }
 
+/// The first segment that starts after `step`.
+std::vector<TimelineSegment>::const_iterator firstAfter(const std::vector<TimelineSegment>& segments,
+                                                        std::uint64_t step) {
+  return std::upper_bound(segments.begin(), segments.end(), step,
+                          [](std::uint64_t k, const TimelineSegment& s) { return k < s.step; });
+}
+
 }  // namespace
 
 Timeline::Timeline(const ros::Time& origin) { segments_.push_back({0, 0.0, origin}); }
 
 const TimelineSegment& Timeline::at(std::uint64_t step) const {
-  auto after = std::upper_bound(segments_.begin(), segments_.end(), step,
-                                [](std::uint64_t k, const TimelineSegment& s) { return k < s.step; });
-  return *std::prev(after);  // the first segment starts at step 0
+  return *std::prev(firstAfter(segments_, step));  // the first segment starts at step 0
 }
 
 void Timeline::start(std::uint64_t step, double time, const ros::Time& stamp) {
-  segments_.erase(std::upper_bound(segments_.begin(), segments_.end(), step,
-                                   [](std::uint64_t k, const TimelineSegment& s) { return k < s.step; }),
-                  segments_.end());
+  segments_.erase(firstAfter(segments_, step), segments_.end());
   if (segments_.back().step == step) {
     if (segments_.size() == 1) {  // before the first step: the origin moves
       segments_.back().stamp = stamp;
