@@ -57,6 +57,30 @@ TEST(IntegratorRegistry, KeysAreTheCommonOnesThenEachIntegratorsOwnOnce) {
   EXPECT_EQ(integratorKeys(), expected);
 }
 
+// An integrator's own keys live in the scene's options under its name, in its own settings
+// type: absent, they are that type's defaults; a copied scene owns its copy.
+TEST(IntegratorRegistry, OwnKeysLiveInTheScenesOptions) {
+  struct Made {
+    double gain = 2.5;
+    int sweeps = 3;
+  };
+  Scene a = gridScene(3, 3, 0.1, "backward_euler");
+  EXPECT_EQ(a.integratorOptions.get<Made>("made_up").gain, 2.5);
+  EXPECT_EQ(a.integratorOptions.get<Made>("made_up").sweeps, 3);
+  a.integratorOptions.edit<Made>("made_up").gain = 7.0;
+  Scene b = a;
+  b.integratorOptions.edit<Made>("made_up").gain = 9.0;
+  EXPECT_EQ(a.integratorOptions.get<Made>("made_up").gain, 7.0);
+  EXPECT_EQ(b.integratorOptions.get<Made>("made_up").gain, 9.0);
+  EXPECT_EQ(b.integratorOptions.get<Made>("made_up").sweeps, 3);
+  // symplectic_euler's keys are its settings struct's fields: the stepper is built with them.
+  a.integratorOptions.edit<SymplecticEulerSettings>("symplectic_euler").cflSafety = 1.5;
+  const Status refused = validateScene(a);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_TRUE(contains(refused.error(), "integrator.cfl_safety must be in (0, 1], got 1.5"))
+      << refused.error();
+}
+
 // Scene features against integrators, as the integrators' headers state them: projective
 // dynamics takes ARAP cloth in 3D with quadratic bending, mass damping and no contact; XPBD
 // needs bending with a constraint form (quadratic, dihedral); self-contact is the implicit

@@ -519,7 +519,7 @@ CflCase cflCase(bool autoSubstep, double multiple) {
   CflCase c;
   // 1000 N/m: the 1 kg cloth stretches by a few per cent where it hangs from its corners.
   c.scene = gridScene(3, 5, 1.0, "symplectic_euler", 1000.0);
-  c.scene.autoSubstep = autoSubstep;
+  c.scene.integratorOptions.edit<SymplecticEulerSettings>("symplectic_euler").autoSubstep = autoSubstep;
   ScenePin pin;
   pin.select.gridVertices = {{0, 0}, {0, -1}};
   c.scene.pins.push_back(pin);
@@ -552,7 +552,7 @@ TEST(CflBound, RefusesAnUnstableStepAndNamesTheBound) {
   EXPECT_GE(reported, 0.85 * bound);
   // The step it suggests is the safety fraction of that bound.
   const double suggested = numberAfter(r.error, "use dt <= ");
-  EXPECT_NEAR(suggested, c.scene.cflSafety * reported, 1e-3 * reported);
+  EXPECT_NEAR(suggested, c.scene.integratorOptions.get<SymplecticEulerSettings>("symplectic_euler").cflSafety * reported, 1e-3 * reported);
   EXPECT_NE(r.error.find("dt = "), std::string::npos);
 
   // A step below the suggested one is taken as one step, and stays stable.

@@ -135,6 +135,19 @@ TEST(SceneYaml, OutOfRangeValuesAreNamed) {
   expectParseError(std::string(kBase) + "duration: .inf\n", {"duration", "finite"});
 }
 
+// Keys of one integrator alone are read into its settings in the scene's options.
+TEST(SceneYaml, IntegratorOwnKeysReachItsSettings) {
+  const Expected<Scene> s = parse(variant("integrator.cfl_safety", "0.25"));
+  ASSERT_TRUE(s.ok()) << s.error();
+  const SymplecticEulerSettings se = s->integratorOptions.get<SymplecticEulerSettings>("symplectic_euler");
+  EXPECT_EQ(se.cflSafety, 0.25);
+  EXPECT_TRUE(se.autoSubstep);  // not given: the default
+  const Expected<Scene> off = parse(variant("integrator.auto_substep", "false"));
+  ASSERT_TRUE(off.ok()) << off.error();
+  EXPECT_FALSE(off->integratorOptions.get<SymplecticEulerSettings>("symplectic_euler").autoSubstep);
+  expectParseError(variant("integrator.chebyshev_rho", "1.0"), {"integrator.chebyshev_rho", "[0, 1)"});
+}
+
 TEST(SceneYaml, BuildErrorsNameTheirKey) {
   // Valid on their own, wrong against the mesh: found when the simulation is built.
   const Expected<Scene> pin = parse(std::string(kBase) + "pins: [{vertices: [20]}]\n");

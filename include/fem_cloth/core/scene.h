@@ -124,12 +124,12 @@ struct Scene {
   std::string integrator = "backward_euler";
   double dt = 0.01;
   int substeps = 1;
-  bool autoSubstep = true;  ///< symplectic_euler: substep to stay stable
-  double cflSafety = 0.5;   ///< symplectic_euler
   int maxRetries = 4;
   NewtonSettings newton;
   int iterations = 10;  ///< xpbd: Gauss-Seidel sweeps; projective_dynamics: local/global iterations
-  double chebyshevRho = 0.0;  ///< projective_dynamics: Chebyshev acceleration (0: off)
+  /// Keys of one integrator alone (symplectic_euler's auto_substep and cfl_safety,
+  /// projective_dynamics' chebyshev_rho), in settings its registry entry defines (registry.h).
+  IntegratorOptions integratorOptions;
 
   std::vector<ScenePin> pins;
   std::vector<SceneForce> forces;

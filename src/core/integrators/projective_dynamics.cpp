@@ -402,6 +402,13 @@ StepReport ProjectiveDynamics::step(const StepInput& given, State& state, double
   return report;
 }
 
+namespace {
+/// projective_dynamics' own key (integrator.chebyshev_rho), in the scene's integrator options.
+struct ChebyshevOptions {
+  double rho = 0.0;
+};
+}  // namespace
+
 IntegratorEntry projectiveDynamicsEntry() {
   IntegratorEntry e;
   e.name = "projective_dynamics";
@@ -416,21 +423,24 @@ IntegratorEntry projectiveDynamicsEntry() {
   e.supports.obstacles = false;
   e.supports.stiffnessDamping = false;
   e.keys = {"iterations", "chebyshev_rho"};
-  e.read = [](const SettingsReader& r, Scene& s) -> Status {
+  // `iterations` is shared with XPBD (Scene::iterations); chebyshev_rho is its own key, kept in
+  // the scene's integrator options.
+  e.read = [name = e.name](const SettingsReader& r, Scene& s) -> Status {
     FEM_CLOTH_CHECK(r.integer("iterations", s.iterations));
-    return r.number("chebyshev_rho", s.chebyshevRho);
+    return r.number("chebyshev_rho", s.integratorOptions.edit<ChebyshevOptions>(name).rho);
   };
-  e.check = [](const Scene& s) -> Status {
+  e.check = [name = e.name](const Scene& s) -> Status {
     FEM_CLOTH_CHECK(countInRange(s.iterations, 1, 100'000, "integrator.iterations"));
-    if (!(s.chebyshevRho >= 0.0 && s.chebyshevRho < 1.0)) {
-      return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(s.chebyshevRho)};
+    const double rho = s.integratorOptions.get<ChebyshevOptions>(name).rho;
+    if (!(rho >= 0.0 && rho < 1.0)) {
+      return Error{"integrator.chebyshev_rho must be in [0, 1), got " + numberText(rho)};
     }
     return Status::success();
   };
-  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
+  e.make = [name = e.name](const Scene& s) -> std::unique_ptr<Integrator> {
     ProjectiveDynamicsSettings settings;
     settings.iterations = s.iterations;
-    settings.chebyshevRho = s.chebyshevRho;
+    settings.chebyshevRho = s.integratorOptions.get<ChebyshevOptions>(name).rho;
     return std::make_unique<ProjectiveDynamics>(settings);
   };
   return e;

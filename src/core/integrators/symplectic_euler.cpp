@@ -227,21 +227,21 @@ IntegratorEntry symplecticEulerEntry() {
   // Obstacles by projection after each substep; self-contact needs the implicit barrier.
   e.supports.selfContact = false;
   e.keys = {"auto_substep", "cfl_safety"};
-  e.read = [](const SettingsReader& r, Scene& s) -> Status {
-    FEM_CLOTH_CHECK(r.boolean("auto_substep", s.autoSubstep));
-    return r.number("cfl_safety", s.cflSafety);
+  // Its keys are SymplecticEulerSettings' fields, kept in the scene's integrator options.
+  e.read = [name = e.name](const SettingsReader& r, Scene& s) -> Status {
+    SymplecticEulerSettings& o = s.integratorOptions.edit<SymplecticEulerSettings>(name);
+    FEM_CLOTH_CHECK(r.boolean("auto_substep", o.autoSubstep));
+    return r.number("cfl_safety", o.cflSafety);
   };
-  e.check = [](const Scene& s) -> Status {
-    if (!(s.cflSafety > 0.0 && s.cflSafety <= 1.0)) {
-      return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(s.cflSafety)};
+  e.check = [name = e.name](const Scene& s) -> Status {
+    const double safety = s.integratorOptions.get<SymplecticEulerSettings>(name).cflSafety;
+    if (!(safety > 0.0 && safety <= 1.0)) {
+      return Error{"integrator.cfl_safety must be in (0, 1], got " + numberText(safety)};
     }
     return Status::success();
   };
-  e.make = [](const Scene& s) -> std::unique_ptr<Integrator> {
-    SymplecticEulerSettings settings;
-    settings.autoSubstep = s.autoSubstep;
-    settings.cflSafety = s.cflSafety;
-    return std::make_unique<SymplecticEuler>(settings);
+  e.make = [name = e.name](const Scene& s) -> std::unique_ptr<Integrator> {
+    return std::make_unique<SymplecticEuler>(s.integratorOptions.get<SymplecticEulerSettings>(name));
   };
   return e;
 }

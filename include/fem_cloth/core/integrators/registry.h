@@ -12,7 +12,9 @@
 // it, silently. The explicit list also fixes the order (the report's rows follow it).
 #pragma once
 
+#include <any>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -52,6 +54,30 @@ class SettingsReader {
   virtual std::string where(const std::string& key) const = 0;
 };
 
+/// The values of an integrator's own keys, kept in the scene (`Scene::integratorOptions`) under
+/// the integrator's name, in a settings struct the integrator defines in its own .cpp: an
+/// integrator with keys of its own then adds no field to `Scene`. Copies are deep (std::any).
+class IntegratorOptions {
+ public:
+  /// The settings stored for `integrator`, default-constructed first if there are none.
+  template <class T>
+  T& edit(const std::string& integrator) {
+    std::any& value = values_[integrator];
+    if (!value.has_value()) value = T{};
+    return std::any_cast<T&>(value);
+  }
+  /// The settings stored for `integrator`, or T's defaults if there are none (a scene built in
+  /// code that never named the keys).
+  template <class T>
+  T get(const std::string& integrator) const {
+    const auto it = values_.find(integrator);
+    return it == values_.end() ? T{} : std::any_cast<T>(it->second);
+  }
+
+ private:
+  std::map<std::string, std::any> values_;
+};
+
 struct IntegratorEntry {
   std::string name;     ///< integrator.name
   std::string summary;  ///< one line for --help and the docs
@@ -59,7 +85,8 @@ struct IntegratorEntry {
   /// Its own keys under `integrator` (besides name, dt, substeps and max_retries, which every
   /// integrator reads); integrators may share a key (`iterations`).
   std::vector<std::string> keys;
-  /// Reads those keys into the scene.
+  /// Reads those keys into the scene: into `Scene::integratorOptions` under its name (a new
+  /// integrator's way), or into fields of `Scene` that several integrators share.
   std::function<Status(const SettingsReader&, Scene&)> read;
   /// Range checks on those keys, naming them. Run for every entry whatever the scene's
   /// integrator, so that a bad value is refused even while another integrator is chosen.
