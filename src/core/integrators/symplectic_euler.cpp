@@ -227,7 +227,8 @@ IntegratorEntry symplecticEulerEntry() {
   // Obstacles by projection after each substep; self-contact needs the implicit barrier.
   e.supports.selfContact = false;
   e.keys = {"auto_substep", "cfl_safety"};
-  // Its keys are SymplecticEulerSettings' fields, kept in the scene's integrator options.
+  // Its keys set two of SymplecticEulerSettings' fields (the others keep their defaults); the
+  // struct is kept in the scene's integrator options.
   e.read = [name = e.name](const SettingsReader& r, Scene& s) -> Status {
     SymplecticEulerSettings& o = s.integratorOptions.edit<SymplecticEulerSettings>(name);
     FEM_CLOTH_CHECK(r.boolean("auto_substep", o.autoSubstep));
