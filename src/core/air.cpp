@@ -30,6 +30,7 @@ AirModel::AirModel(std::shared_ptr<const Mesh> mesh, AirSettings settings)
     : mesh_(std::move(mesh)), settings_(settings) {
   normal_.assign(mesh_->triangles.size(), Eigen::Vector3d::Zero());
   area_.assign(mesh_->triangles.size(), 0.0);
+  incidence_ = VertexIncidence(mesh_->numVertices(), mesh_->triangles);
 }
 
 void AirModel::lag(const VectorX& x) {
@@ -50,16 +51,45 @@ Eigen::Vector3d AirModel::relative(const VectorX& v, Index t) const {
          settings_.wind;
 }
 
+Eigen::Vector3d AirModel::triangleForce(const Eigen::Vector3d& vr, std::size_t t) const {
+  const double half = 0.5 * settings_.density;
+  const Eigen::Vector3d& n = normal_[t];
+  const Split p = split(vr, n);
+  return -half * area_[t] *
+         (settings_.normalDrag * std::abs(p.s) * p.s * n + settings_.tangentialDrag * p.t * p.vt);
+}
+
+Eigen::Matrix3d AirModel::triangleCurvature(const Eigen::Vector3d& vr, std::size_t t) const {
+  const Eigen::Vector3d& n = normal_[t];
+  const Split p = split(vr, n);
+  Eigen::Matrix3d hr = (2.0 * settings_.normalDrag * std::abs(p.s)) * n * n.transpose();
+  if (p.t > 0.0) {
+    hr += settings_.tangentialDrag *
+          (p.t * (Eigen::Matrix3d::Identity() - n * n.transpose()) + p.vt * p.vt.transpose() / p.t);
+  }
+  return hr;
+}
+
 void AirModel::force(const VectorX& v, VectorX& out) const {
   out.setZero(v.size());
-  const double half = 0.5 * settings_.density;
   for (std::size_t t = 0; t < mesh_->triangles.size(); ++t) {
-    const Eigen::Vector3d& n = normal_[t];
-    const Split p = split(relative(v, static_cast<Index>(t)), n);
-    const Eigen::Vector3d f = -half * area_[t] *
-                              (settings_.normalDrag * std::abs(p.s) * p.s * n +
-                               settings_.tangentialDrag * p.t * p.vt);
+    const Eigen::Vector3d f = triangleForce(relative(v, static_cast<Index>(t)), t);
     for (Index k : mesh_->triangles[t]) out.segment<3>(3 * k) += f / 3.0;
+  }
+}
+
+void AirModel::vertexDerivatives(const VectorX& x, const VectorX& xc, double gamma, Index vertex,
+                                 VertexDerivatives& out) const {
+  out = VertexDerivatives{};
+  const double half = 0.5 * settings_.density;
+  for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
+    const auto t = static_cast<std::size_t>(use.element);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (Index k : mesh_->triangles[t]) mean += gamma * (x.segment<3>(3 * k) - xc.segment<3>(3 * k));
+    const Eigen::Vector3d vr = mean / 3.0 - settings_.wind;
+    out.force += triangleForce(vr, t) / 3.0;
+    // v_r is the mean of the three velocities: each vertex's block gets 1/9.
+    out.hessian += triangleCurvature(vr, t) * (half * area_[t] / 9.0);
   }
 }
 
@@ -88,14 +118,8 @@ void AirModel::addHessian(const VectorX& v, double scale, SparseHessian& H) {
   const double half = 0.5 * settings_.density;
   Eigen::Matrix<double, 9, 9> element;
   for (std::size_t t = 0; t < numTriangles; ++t) {
-    const Eigen::Vector3d& n = normal_[t];
-    const Split p = split(relative(v, static_cast<Index>(t)), n);
     // d^2 D / dv_r^2; v_r is the mean of the three velocities, so each pair of vertices gets 1/9.
-    Eigen::Matrix3d hr = (2.0 * settings_.normalDrag * std::abs(p.s)) * n * n.transpose();
-    if (p.t > 0.0) {
-      hr += settings_.tangentialDrag *
-            (p.t * (Eigen::Matrix3d::Identity() - n * n.transpose()) + p.vt * p.vt.transpose() / p.t);
-    }
+    Eigen::Matrix3d hr = triangleCurvature(relative(v, static_cast<Index>(t)), t);
     hr *= scale * half * area_[t] / 9.0;
     for (int a = 0; a < 3; ++a) {
       for (int b = 0; b < 3; ++b) element.block<3, 3>(3 * a, 3 * b) = hr;

@@ -184,6 +184,10 @@ HingeTerm::HingeTerm(const Mesh& mesh, double stiffness)
   energy_.assign(m, 0.0);
   inDomain_.assign(m, 1);
   gradient_.assign(m, HingeVector::Zero());
+  std::vector<std::array<Index, 4>> stencils;
+  stencils.reserve(m);
+  for (const Hinge& h : hinges_) stencils.push_back(h.vertices);
+  incidence_ = VertexIncidence(mesh.numVertices(), stencils);
 }
 
 void HingeTerm::appendStencils(std::vector<std::vector<Index>>* stencils) const {
@@ -277,6 +281,18 @@ EvalResult QuadraticBending::evaluate(const VectorX& x, const EvalRequest& reque
   return result;
 }
 
+bool QuadraticBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
+                                         VertexDerivatives& out) const {
+  out = VertexDerivatives{};
+  for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
+    const auto h = static_cast<std::size_t>(use.element);
+    const double Ka = stencils_[h][use.slot];
+    out.force -= (weights_[h] * Ka) * (gather(x, h) * stencils_[h]);
+    out.hessian.diagonal().array() += weights_[h] * (Ka * Ka);
+  }
+  return true;
+}
+
 // ---------------------------------------------------------------------------------------------
 // DihedralBending
 // ---------------------------------------------------------------------------------------------
@@ -360,6 +376,30 @@ EvalResult DihedralBending::evaluate(const VectorX& x, const EvalRequest& reques
     }
   }
   return result;
+}
+
+bool DihedralBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                                        VertexDerivatives& out) const {
+  out = VertexDerivatives{};
+  for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
+    const auto h = static_cast<std::size_t>(use.element);
+    double theta = 0.0;
+    HingeVector dtheta;
+    HingeMatrix d2theta;
+    if (!dihedralAngle(gather(x, h), &theta, &dtheta, &d2theta)) return false;
+    const double delta = std::remainder(theta - restAngles_[h], kTwoPi);
+    const double w = weights_[h];
+    const int a = 3 * use.slot;
+    out.force -= (2.0 * w * delta) * dtheta.segment<3>(a);
+    if (mode == HessianMode::Projected) {
+      const HingeMatrix H = (2.0 * w) * (dtheta * dtheta.transpose() + delta * d2theta);
+      out.hessian += clampNegativeEigenvalues(H).block<3, 3>(a, a);
+    } else {
+      out.hessian += (2.0 * w) * (dtheta.segment<3>(a) * dtheta.segment<3>(a).transpose() +
+                                  delta * d2theta.block<3, 3>(a, a));
+    }
+  }
+  return true;
 }
 
 bool DihedralBending::elementConstraints(Index h, const VectorX& x, double* C,

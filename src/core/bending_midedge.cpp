@@ -493,6 +493,7 @@ MidedgeBending::MidedgeBending(const Mesh& mesh, const RestState& rest, double s
   moment_.assign(m, 0.0);
   measureGradient_.assign(m, HingeVector::Zero());
   elementMoment_.assign(elements_.size(), {});
+  incidence_ = stencilIncidence(*this, mesh.numVertices());  // elements, not hinges
 }
 
 void MidedgeBending::appendStencils(std::vector<std::vector<Index>>* stencils) const {
@@ -620,6 +621,19 @@ bool MidedgeBending::evaluateElement(Index index, const VectorX& x, double* ener
             part.block<3, 3>(3 * a, 3 * c);
       }
     }
+  }
+  return true;
+}
+
+bool MidedgeBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                                       VertexDerivatives& out) const {
+  out = VertexDerivatives{};
+  ElementGradient gradient;
+  ElementHessian hessian;
+  for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
+    if (!evaluateElement(use.element, x, nullptr, &gradient, &hessian, mode)) return false;
+    out.force -= gradient.segment<3>(3 * use.slot);
+    out.hessian += hessian.block<3, 3>(3 * use.slot, 3 * use.slot);
   }
   return true;
 }

@@ -23,6 +23,7 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
     gradient_.resize(m);
     frames_.resize(m);
     for (std::size_t t = 0; t < m; ++t) frames_[t] = rest_->frame<D>(static_cast<Index>(t));
+    incidence_ = VertexIncidence(mesh_->numVertices(), mesh_->triangles);
   }
 
   std::string name() const override { return std::string("membrane/") + Model::kName; }
@@ -41,6 +42,32 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
       std::copy(local.begin(), local.end(), offsets_.begin() + static_cast<long>(t * 9 * D));
     }
     hessian_.resize(m);
+  }
+
+  // Per-vertex access: vertex a of triangle t gets A P g_a and the block (a, a) of the element
+  // Hessian (membrane.h's kernels restricted to one vertex).
+  bool hasVertexDerivatives() const override { return true; }
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override {
+    out = VertexDerivatives{};
+    for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
+      const Index t = use.element;
+      const DefGrad<D> F = deformationGradient<D>(*mesh_, *rest_, x, t);
+      if (!model_.template inDomain<D>(F)) return false;
+      const DefGrad<D>& T = frames_[t];
+      const double area = rest_->restArea[t];
+      const Eigen::Vector2d g = rest_->shapeGradients[t].row(use.slot).transpose();
+      out.force.template head<D>() -= area * (model_.template pk1<D>(F, T) * g);
+      const StressHessian<D> H = mode == HessianMode::Projected
+                                     ? model_.template projectedHessian<D>(F, T)
+                                     : model_.template hessian<D>(F, T);
+      Eigen::Matrix<double, D, D> block = Eigen::Matrix<double, D, D>::Zero();
+      for (int c = 0; c < 2; ++c) {
+        for (int e = 0; e < 2; ++e) block += (g[c] * g[e]) * H.template block<D, D>(D * c, D * e);
+      }
+      out.hessian.template topLeftCorner<D, D>() += area * block;
+    }
+    return true;
   }
 
   bool hasValidityRange() const override { return Model::kHasValidityRange; }
@@ -205,6 +232,7 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
   std::vector<ElementVector<D>, Eigen::aligned_allocator<ElementVector<D>>> gradient_;
   std::vector<ElementMatrix<D>, Eigen::aligned_allocator<ElementMatrix<D>>> hessian_;
   std::vector<int> offsets_;
+  VertexIncidence incidence_;  // the triangles of each vertex
 };
 
 template <int D>

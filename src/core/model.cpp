@@ -50,6 +50,25 @@ EvalResult Model::evaluate(const VectorX& x, const EvalRequest& request) {
   return total;
 }
 
+bool Model::hasVertexDerivatives() const {
+  for (const Entry& entry : terms_) {
+    if (!entry.term->hasVertexDerivatives()) return false;
+  }
+  return true;
+}
+
+bool Model::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                              VertexDerivatives& out) const {
+  out = VertexDerivatives{};
+  VertexDerivatives term;
+  for (const Entry& entry : terms_) {
+    if (!entry.term->vertexDerivatives(x, vertex, mode, term)) return false;
+    out.force += term.force;
+    out.hessian += term.hessian;
+  }
+  return true;
+}
+
 Model::Energies Model::energies(const VectorX& x) {
   Energies e;
   EvalRequest request;

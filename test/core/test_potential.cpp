@@ -112,7 +112,7 @@ void checkVertexAccess(PotentialTerm& term, Model& model, const VectorX& x) {
   double worstForce = 0.0, worstBlock = 0.0, worstRow = 0.0, worstGlobalBlock = 0.0;
   for (Index v = 0; v < model.numVertices(); ++v) {
     VertexDerivatives d;
-    ASSERT_TRUE(term.vertexDerivatives(x, v, d)) << term.name();
+    ASSERT_TRUE(term.vertexDerivatives(x, v, HessianMode::Exact, d)) << term.name();
     for (int a = 0; a < 3; ++a) {
       VectorX xp = x, xm = x;
       xp[3 * v + a] += kStep;

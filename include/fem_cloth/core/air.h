@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "fem_cloth/core/expected.h"
+#include "fem_cloth/core/energy_term.h"
 #include "fem_cloth/core/integrators/integrator.h"
 #include "fem_cloth/core/mesh.h"
 #include "fem_cloth/core/sparse_hessian.h"
@@ -52,18 +53,28 @@ class AirModel {
   double dissipation(const VectorX& v) const;
   /// Adds scale x d^2 D / dv^2 at v into H (whose pattern couples each triangle's vertices).
   void addHessian(const VectorX& v, double scale, SparseHessian& H);
+  /// Per-vertex access (for local solvers): at the velocities v = gamma (x - xc), the air force
+  /// on `vertex` (N) into out.force and d^2D/dv_v^2 (N s/m, PSD) into out.hessian, from the
+  /// vertex's triangles only. Thread-safe.
+  void vertexDerivatives(const VectorX& x, const VectorX& xc, double gamma, Index vertex,
+                         VertexDerivatives& out) const;
   /// A bound on the fastest decay rate (1/s) the drag gives any vertex at v (Gershgorin over
   /// d(force)/dv / m): an explicit substep h is stable and does not reverse the relative
   /// velocity while h x this is below 1.
   double explicitRate(const VectorX& v, const VectorX& vertexMasses) const;
 
  private:
-  /// Per triangle: relative velocity and its normal component s = v_r . n.
+  /// Per triangle: its relative velocity (the mean of its vertices' velocities minus the wind).
   Eigen::Vector3d relative(const VectorX& v, Index t) const;
+  /// Triangle t's air force at relative velocity vr (N, the whole triangle's).
+  Eigen::Vector3d triangleForce(const Eigen::Vector3d& vr, std::size_t t) const;
+  /// d^2 D_t / dv_r^2 / (1/2 rho A_t) at relative velocity vr.
+  Eigen::Matrix3d triangleCurvature(const Eigen::Vector3d& vr, std::size_t t) const;
   std::shared_ptr<const Mesh> mesh_;
   AirSettings settings_;
   std::vector<Eigen::Vector3d> normal_;
   std::vector<double> area_;
+  VertexIncidence incidence_;  // the triangles of each vertex
   // Hessian slots of each triangle's vertex pairs, for the pattern they were taken from.
   std::vector<int> offsets_;
   const SparseHessian* offsetsFor_ = nullptr;

@@ -86,6 +86,8 @@ class HingeTerm : public EnergyTerm {
 
   void appendStencils(std::vector<std::vector<Index>>* stencils) const override;
   void bindHessian(const SparseHessian& hessian) override;
+  /// Every hinge-based model offers per-vertex access (EnergyTerm::vertexDerivatives).
+  bool hasVertexDerivatives() const override { return true; }
 
  protected:
   /// Preconditions (checked by makeBendingTerm): a 3D mesh, rest computed from it, finite k >= 0.
@@ -106,6 +108,8 @@ class HingeTerm : public EnergyTerm {
   std::vector<char> inDomain_;
   std::vector<HingeVector, Eigen::aligned_allocator<HingeVector>> gradient_;
   std::vector<int> offsets_;
+  /// The stencils (hinges; the mid-edge model's elements) around each vertex.
+  VertexIncidence incidence_;
 };
 
 /// Bergou et al. 2006, the discrete isometric bending model (the paper's K0 and Q_e). Per hinge,
@@ -143,6 +147,10 @@ class QuadraticBending final : public HingeConstraintTerm, public ProjectiveForm
   std::string name() const override { return "bending/quadratic"; }
   EvalResult evaluate(const VectorX& x, const EvalRequest& request) override;
   bool hasConstantHessian() const override { return true; }
+  /// Force -w K_a (sum_b K_b x_b) and block w K_a^2 I of each hinge around the vertex (PSD:
+  /// both modes alike).
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
 
   /// Projective form: already quadratic, E = 1/2 x^T Q x with p = 0; nothing to project.
   ProjectiveForm* projectiveForm() override { return this; }
@@ -184,6 +192,9 @@ class DihedralBending final : public HingeConstraintTerm {
   std::string name() const override { return "bending/dihedral"; }
   EvalResult evaluate(const VectorX& x, const EvalRequest& request) override;
   void bindHessian(const SparseHessian& hessian) override;
+  /// Projected: the block of each hinge's projected 12 x 12 Hessian, as evaluate() adds it.
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
 
   /// Constraint form: C = theta - restTheta (wrapped), K_e = 2 k c_e.
   int constraintsPerElement() const override { return 1; }

@@ -107,6 +107,11 @@ class MidedgeBending final : public HingeTerm {
   EvalResult evaluate(const VectorX& x, const EvalRequest& request) override;
   void appendStencils(std::vector<std::vector<Index>>* stencils) const override;
   void bindHessian(const SparseHessian& hessian) override;
+  /// From evaluateElement over the elements around the vertex. Projected: each element's
+  /// Hessian made PSD as evaluateElement does it (per element; the assembled term projects per
+  /// hinge), so the block is PSD but need not be the assembled projected Hessian's block.
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
 
   // No constraint form (an element couples 12 vertices and up to 9 hinge measures): XPBD
   // refuses it (the integrator registry says so when the scene is loaded); use quadratic or

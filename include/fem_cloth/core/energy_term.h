@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "fem_cloth/core/conventions.h"
+#include "fem_cloth/core/mesh.h"
 #include "fem_cloth/core/sparse_hessian.h"
 
 namespace fem_cloth {
@@ -52,6 +53,16 @@ struct Validity {
   bool ok() const { return !(measure > limit); }
 };
 
+/// The derivatives of a term with respect to one vertex's position, with the other vertices
+/// held fixed: the force -dE/dx_v (N; for a dissipative term of the incremental potential,
+/// -dPhi_t/dx_v) and the 3 x 3 block d^2E/dx_v^2 (N/m; on a planar mesh only the top-left 2 x 2
+/// is used, the rest is zero). Vertex block descent (Chen, Macklin et al., "Vertex Block
+/// Descent", 2024) minimises one vertex at a time with these.
+struct VertexDerivatives {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
+};
+
 class EnergyTerm {
  public:
   virtual ~EnergyTerm() = default;
@@ -72,11 +83,30 @@ class EnergyTerm {
   /// The element with the largest validity measure at x (see Validity).
   virtual Validity validity(const VectorX& /*x*/) const { return {}; }
 
+  /// Per-vertex access, for local solvers: the force and Hessian block at `vertex` of the
+  /// elements whose stencil holds it, summed. Exact: the block of the exact Hessian; Projected:
+  /// each element's Hessian made PSD first, as evaluate() projects it, so the block is PSD. The
+  /// elements around one vertex only are evaluated (cost independent of the mesh size), and the
+  /// call is thread-safe (no member is written). False when the term does not offer it
+  /// (hasVertexDerivatives) or an element around the vertex is outside its domain.
+  virtual bool hasVertexDerivatives() const { return false; }
+  virtual bool vertexDerivatives(const VectorX& /*x*/, Index /*vertex*/, HessianMode /*mode*/,
+                                 VertexDerivatives& /*out*/) const {
+    return false;
+  }
+
   /// Optional forms for solvers other than Newton's (energy_forms.h): the constraint form
   /// XPBD visits element by element, the projective form Projective Dynamics minimises. Null
   /// when the term has none.
   virtual const ConstraintForm* constraintForm() const { return nullptr; }
   virtual ProjectiveForm* projectiveForm() { return nullptr; }
 };
+
+/// The vertex-to-element table of a term's stencils (appendStencils: element e is stencil e).
+inline VertexIncidence stencilIncidence(const EnergyTerm& term, Index numVertices) {
+  std::vector<std::vector<Index>> stencils;
+  term.appendStencils(&stencils);
+  return VertexIncidence(numVertices, stencils);
+}
 
 }  // namespace fem_cloth

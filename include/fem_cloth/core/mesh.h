@@ -38,6 +38,56 @@ Eigen::Vector3d vertex3(const Mesh& mesh, const VectorX& x, Index i);
 /// Unique undirected edges (i < j), sorted.
 std::vector<std::array<Index, 2>> uniqueEdges(const std::vector<Triangle>& triangles);
 
+/// For each vertex, the elements whose stencil (vertex list) holds it, and the vertex's place in
+/// that stencil: the vertex-to-element table local solvers need (EnergyTerm::vertexDerivatives).
+/// Stored as one array (CSR), in element order per vertex.
+class VertexIncidence {
+ public:
+  struct Use {
+    Index element;  ///< the element's index in the term
+    int slot;       ///< the vertex's place in the element's stencil
+  };
+  struct Range {
+    const Use* first;
+    const Use* last;
+    const Use* begin() const { return first; }
+    const Use* end() const { return last; }
+    std::size_t size() const { return static_cast<std::size_t>(last - first); }
+  };
+
+  VertexIncidence() = default;
+  /// stencils[e]: the vertices of element e (any iterable of Index), each in [0, numVertices).
+  template <class Stencils>
+  VertexIncidence(Index numVertices, const Stencils& stencils) {
+    start_.assign(static_cast<std::size_t>(numVertices) + 1, 0);
+    for (const auto& stencil : stencils) {
+      for (Index v : stencil) ++start_[static_cast<std::size_t>(v) + 1];
+    }
+    for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
+    uses_.resize(static_cast<std::size_t>(start_.back()));
+    std::vector<Index> next(start_.begin(), start_.end() - 1);
+    Index element = 0;
+    for (const auto& stencil : stencils) {
+      int slot = 0;
+      for (Index v : stencil) {
+        uses_[static_cast<std::size_t>(next[static_cast<std::size_t>(v)]++)] = Use{element, slot++};
+      }
+      ++element;
+    }
+  }
+
+  Index numVertices() const { return start_.empty() ? 0 : static_cast<Index>(start_.size() - 1); }
+  Range uses(Index vertex) const {
+    const Use* base = uses_.data();
+    return {base + start_[static_cast<std::size_t>(vertex)],
+            base + start_[static_cast<std::size_t>(vertex) + 1]};
+  }
+
+ private:
+  std::vector<Index> start_;
+  std::vector<Use> uses_;
+};
+
 /// The plane a grid is laid out in (3D only): its first axis runs along `cols`, its second along
 /// `rows`.
 enum class GridPlane { XY, XZ, YZ };

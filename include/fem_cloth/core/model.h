@@ -45,6 +45,12 @@ class Model {
   /// Sum over all terms. With request.hessian set, the pattern must come from hessianPattern().
   EvalResult evaluate(const VectorX& x, const EvalRequest& request);
 
+  /// Per-vertex access (EnergyTerm::vertexDerivatives) summed over the terms: offered when every
+  /// term offers it; false when one does not, or is outside its domain around the vertex.
+  bool hasVertexDerivatives() const;
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const;
+
   /// Elastic energy split by kind (J); +inf in a kind whose term is outside its domain.
   struct Energies {
     double membrane = 0.0;

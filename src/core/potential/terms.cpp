@@ -25,6 +25,17 @@ EvalResult ElasticTerm::evaluate(const VectorX& x, const TermRequest& request) {
   return model_->evaluate(x, r);
 }
 
+TermCapabilities ElasticTerm::capabilities() const {
+  TermCapabilities c;
+  c.perVertex = model_ != nullptr && model_->hasVertexDerivatives();
+  return c;
+}
+
+bool ElasticTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                                    VertexDerivatives& out) const {
+  return model_->vertexDerivatives(x, vertex, mode, out);
+}
+
 // --- Loads -------------------------------------------------------------------------------------
 
 EvalResult LoadTerm::evaluate(const VectorX& x, const TermRequest& request) {
@@ -34,7 +45,8 @@ EvalResult LoadTerm::evaluate(const VectorX& x, const TermRequest& request) {
   return r;
 }
 
-bool LoadTerm::vertexDerivatives(const VectorX& /*x*/, Index vertex, VertexDerivatives& out) const {
+bool LoadTerm::vertexDerivatives(const VectorX& /*x*/, Index vertex, HessianMode /*mode*/,
+                                 VertexDerivatives& out) const {
   out = VertexDerivatives{};
   out.force.head(dim_) = force_.segment(dim_ * vertex, dim_);
   return true;
@@ -61,7 +73,7 @@ EvalResult MassDampingTerm::evaluate(const VectorX& x, const TermRequest& reques
   return r;
 }
 
-bool MassDampingTerm::vertexDerivatives(const VectorX& x, Index vertex,
+bool MassDampingTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
                                         VertexDerivatives& out) const {
   const int d = frame_.dim;
   const double k = massProportionalHessian() * (*mass_)[d * vertex];
@@ -118,7 +130,8 @@ EvalResult StiffnessDampingTerm::evaluate(const VectorX& x, const TermRequest& r
 }
 
 bool StiffnessDampingTerm::vertexDerivatives(const VectorX& x, Index vertex,
-                                             VertexDerivatives& out) const {
+                                             HessianMode /*mode*/, VertexDerivatives& out) const {
+  // beta K0 is PSD (projected at the start of the substep): one block for both modes.
   // Row 3v + a of the symmetric beta K0 is its column 3v + a.
   const auto& pattern = model_->hessianPattern().matrix();
   const int* outer = pattern.outerIndexPtr();
@@ -162,6 +175,14 @@ EvalResult AirTerm::evaluate(const VectorX& x, const TermRequest& request) {
   }
   if (request.hessian != nullptr) air_->addHessian(velocity_, frame_.c2 * frame_.gamma, *request.hessian);
   return r;
+}
+
+bool AirTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
+                                VertexDerivatives& out) const {
+  air_->vertexDerivatives(x, *frame_.xc, frame_.gamma, vertex, out);
+  out.force *= frame_.c2;
+  out.hessian *= frame_.c2 * frame_.gamma;
+  return true;
 }
 
 const VectorX& AirTerm::force(const VectorX& v) {

@@ -64,15 +64,6 @@ struct TermRequest {
   HessianMode hessianMode = HessianMode::Projected;
 };
 
-/// The derivatives of a term with respect to one vertex's position, with the other vertices
-/// held fixed: the force -dE/dx_v (N for conservative terms; -dPhi_t/dx_v for dissipative ones)
-/// and the 3x3 block d^2E/dx_v^2 (exact, not projected). Vertex block descent (Chen, Macklin et
-/// al., "Vertex Block Descent", 2024) minimises Phi one vertex at a time with these.
-struct VertexDerivatives {
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();
-};
-
 class PotentialTerm {
  public:
   virtual ~PotentialTerm() = default;
@@ -92,8 +83,12 @@ class PotentialTerm {
   /// k with the term's x-Hessian k M (M the lumped mass): the potential adds it to the inertia's
   /// diagonal, and evaluate() adds no Hessian of its own. 0 for other terms.
   virtual double massProportionalHessian() const { return 0.0; }
-  /// Per-vertex access (capabilities().perVertex); false when the term does not offer it.
-  virtual bool vertexDerivatives(const VectorX& /*x*/, Index /*vertex*/,
+  /// Per-vertex access (capabilities().perVertex; VertexDerivatives in energy_term.h): the
+  /// term's force and 3 x 3 Hessian block at one vertex, in the units of its share of Phi (for
+  /// conservative and load terms, of E: the potential weights them by c^2). mode as for
+  /// EnergyTerm::vertexDerivatives. False when the term does not offer it or an element around
+  /// the vertex is outside its domain.
+  virtual bool vertexDerivatives(const VectorX& /*x*/, Index /*vertex*/, HessianMode /*mode*/,
                                  VertexDerivatives& /*out*/) const {
     return false;
   }

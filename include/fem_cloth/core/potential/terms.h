@@ -18,8 +18,11 @@ class ElasticTerm final : public PotentialTerm {
   void bind(Model& model) { model_ = &model; }
   std::string name() const override { return "elastic"; }
   TermRole role() const override { return TermRole::Conservative; }
-  TermCapabilities capabilities() const override { return {}; }
+  /// Per-vertex when every term of the Model offers it (Model::hasVertexDerivatives).
+  TermCapabilities capabilities() const override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
 
  private:
   Model* model_ = nullptr;
@@ -36,7 +39,8 @@ class LoadTerm final : public PotentialTerm {
   TermCapabilities capabilities() const override { return {true, false, true, false}; }
   void beginSubstep(const SubstepFrame& frame) override { dim_ = frame.dim; }
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
-  bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out) const override;
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
 
  private:
   VectorX force_;
@@ -58,7 +62,8 @@ class MassDampingTerm final : public PotentialTerm {
   void beginSubstep(const SubstepFrame& frame) override { frame_ = frame; }
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
   double massProportionalHessian() const override { return frame_.c2 * frame_.gamma * alpha_; }
-  bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out) const override;
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
   /// The energy it removes over a substep of length h ending at velocity v: h alpha v^T M v.
   double dissipated(const VectorX& v, double h) const;
 
@@ -83,7 +88,8 @@ class StiffnessDampingTerm final : public PotentialTerm {
   /// Assembles beta K0 at frame.x0 (in the Model's Hessian pattern).
   void beginSubstep(const SubstepFrame& frame) override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
-  bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out) const override;
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
   /// h v^T beta K0 v.
   double dissipated(const VectorX& v, double h);
 
@@ -104,9 +110,13 @@ class AirTerm final : public PotentialTerm {
   void bind(AirModel& air) { air_ = &air; }
   std::string name() const override { return "air"; }
   TermRole role() const override { return TermRole::Dissipative; }
-  TermCapabilities capabilities() const override { return {}; }
+  TermCapabilities capabilities() const override { return {true, false, true, false}; }
   void beginSubstep(const SubstepFrame& frame) override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
+  /// The air's share at one vertex: force c^2 f_v at v = gamma (x - xc) of its triangles,
+  /// block c^2 gamma d^2D/dv_v^2 (PSD in both modes).
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
   /// The air force at velocity v (N per DOF).
   const VectorX& force(const VectorX& v);
 

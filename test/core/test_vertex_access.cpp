@@ -1,0 +1,298 @@
+// Per-vertex access of the energy terms (EnergyTerm::vertexDerivatives, PotentialTerm's for the
+// air): at every vertex of a deformed sheet, the force and 3 x 3 Hessian block against
+//  - central differences of the term's energy (the force) and of its gradient (the block):
+//    independent of the per-vertex code and of the assembled Hessian;
+//  - the vertex's row of the assembled gradient and its diagonal block of the assembled exact
+//    and projected Hessians (the same model evaluated element by element the other way round).
+// For every material (planar and cloth meshes), every bending model, and the air.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+#include <functional>
+#include <iostream>
+#include <limits>
+#include <random>
+
+#include "bending_test_support.h"
+#include "fem_cloth/core/air.h"
+#include "fem_cloth/core/materials/materials.h"
+#include "fem_cloth/core/membrane.h"
+#include "fem_cloth/core/model.h"
+#include "fem_cloth/core/potential/terms.h"
+
+using namespace fem_cloth;
+using namespace fem_cloth::test;
+
+namespace {
+
+// A term as the checks see it.
+struct Probe {
+  std::string name;
+  int dim = 3;
+  std::function<double(const VectorX&)> energy;
+  std::function<VectorX(const VectorX&)> gradient;
+  std::function<Eigen::MatrixXd(const VectorX&, HessianMode)> hessian;  // dense, assembled
+  std::function<bool(const VectorX&, Index, HessianMode, VertexDerivatives&)> vertex;
+  // Whether the projected block must equal the assembled projected Hessian's (it projects per
+  // element the way the per-vertex path does).
+  bool projectedIsAssembled = true;
+};
+
+// A term of the Model (Request = EvalRequest) or of the incremental potential (TermRequest),
+// its Hessian assembled into `pattern`.
+template <class Request, class Term>
+Probe probeOf(Term& term, std::shared_ptr<SparseHessian> pattern, int dim) {
+  Probe p;
+  p.name = term.name();
+  p.dim = dim;
+  p.energy = [&term](const VectorX& x) { return term.evaluate(x, Request{}).energy; };
+  p.gradient = [&term](const VectorX& x) {
+    VectorX g = VectorX::Zero(x.size());
+    Request r;
+    r.energy = false;
+    r.gradient = &g;
+    term.evaluate(x, r);
+    return g;
+  };
+  p.hessian = [&term, pattern](const VectorX& x, HessianMode mode) {
+    pattern->setZero();
+    Request r;
+    r.energy = false;
+    r.hessian = pattern.get();
+    r.hessianMode = mode;
+    term.evaluate(x, r);
+    return Eigen::MatrixXd(pattern->matrix());
+  };
+  p.vertex = [&term](const VectorX& x, Index v, HessianMode mode, VertexDerivatives& out) {
+    return term.vertexDerivatives(x, v, mode, out);
+  };
+  return p;
+}
+
+Probe probeOf(EnergyTerm& term, const Mesh& mesh) {
+  return probeOf<EvalRequest>(term, std::make_shared<SparseHessian>(patternFor(mesh, term)), mesh.dim);
+}
+
+double symmetricMinEigenvalue(const Eigen::Matrix3d& A) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (A + A.transpose())).eigenvalues()[0];
+}
+
+// The largest differences over all vertices, each relative to the size of what it compares.
+// Returns how much the projection changed a block (relative): zero where the term is convex at x.
+double check(const Probe& p, const VectorX& x) {
+  const int d = p.dim;
+  const Index n = x.size() / d;
+  const VectorX g = p.gradient(x);
+  const Eigen::MatrixXd H = p.hessian(x, HessianMode::Exact);
+  const Eigen::MatrixXd Hp = p.hessian(x, HessianMode::Projected);
+  const double fScale = std::max(g.cwiseAbs().maxCoeff(), 1e-300);
+  const double hScale = std::max(H.cwiseAbs().maxCoeff(), 1e-300);
+  const double span = (x.maxCoeff() - x.minCoeff());
+  const double step = 1e-6 * span;
+  double forceFd = 0.0, forceRow = 0.0, blockFd = 0.0, blockExact = 0.0, blockProjected = 0.0;
+  double negative = 0.0, projection = 0.0;
+  for (Index v = 0; v < n; ++v) {
+    VertexDerivatives exact, projected;
+    const bool servedExact = p.vertex(x, v, HessianMode::Exact, exact);
+    const bool servedProjected = p.vertex(x, v, HessianMode::Projected, projected);
+    EXPECT_TRUE(servedExact && servedProjected) << p.name << " vertex " << v;
+    if (!servedExact || !servedProjected) return 0.0;
+    projection = std::max(projection, (projected.hessian - exact.hessian).cwiseAbs().maxCoeff());
+    for (int a = 0; a < 3; ++a) {
+      if (a >= d) {
+        // A planar mesh uses the top-left d x d only.
+        EXPECT_EQ(exact.force[a], 0.0) << p.name;
+        EXPECT_EQ(exact.hessian.row(a).norm() + exact.hessian.col(a).norm(), 0.0) << p.name;
+        continue;
+      }
+      VectorX xp = x, xm = x;
+      xp[d * v + a] += step;
+      xm[d * v + a] -= step;
+      forceFd = std::max(forceFd, std::abs(exact.force[a] + (p.energy(xp) - p.energy(xm)) / (2 * step)));
+      forceRow = std::max(forceRow, std::abs(exact.force[a] + g[d * v + a]));
+      const VectorX column = (p.gradient(xp) - p.gradient(xm)) / (2 * step);
+      for (int b = 0; b < d; ++b) {
+        blockFd = std::max(blockFd, std::abs(exact.hessian(b, a) - column[d * v + b]));
+        blockExact = std::max(blockExact, std::abs(exact.hessian(b, a) - H(d * v + b, d * v + a)));
+        if (p.projectedIsAssembled) {
+          blockProjected =
+              std::max(blockProjected, std::abs(projected.hessian(b, a) - Hp(d * v + b, d * v + a)));
+        }
+      }
+    }
+    negative = std::min(negative, symmetricMinEigenvalue(projected.hessian));
+  }
+  std::cout << p.name << " (" << d << "D): force vs differences of E " << forceFd / fScale
+            << ", vs gradient row " << forceRow / fScale << "; block vs differences of the gradient "
+            << blockFd / hScale << ", vs exact Hessian " << blockExact / hScale
+            << ", projected vs projected Hessian " << blockProjected / hScale
+            << ", most negative projected eigenvalue " << negative / hScale
+            << "; the projection changed blocks by " << projection / hScale << " (relative)\n";
+  EXPECT_LT(forceFd, 1e-6 * fScale) << p.name;
+  EXPECT_LT(forceRow, 1e-12 * fScale) << p.name;
+  EXPECT_LT(blockFd, 1e-5 * hScale) << p.name;
+  EXPECT_LT(blockExact, 1e-12 * hScale) << p.name;
+  EXPECT_LT(blockProjected, 1e-12 * hScale) << p.name;
+  EXPECT_GT(negative, -1e-12 * hScale) << p.name;
+  return projection / hScale;
+}
+
+// A 5 x 5 grid, 0.2 m: in 3D curved (z = 0.8 x^2 - 0.5 x y) and jittered by up to 4 mm; in 2D
+// stretched along y and compressed along x by an affine map and jittered (compression makes
+// the non-convex materials' Hessians indefinite). No element inverts.
+VectorX deformed(const Mesh& mesh, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  VectorX x = mesh.restPositions;
+  for (Index i = 0; i < mesh.numVertices(); ++i) {
+    if (mesh.dim == 3) {
+      const double px = x[3 * i], py = x[3 * i + 1];
+      x[3 * i + 2] = 0.8 * px * px - 0.5 * px * py;
+      for (int k = 0; k < 3; ++k) x[3 * i + k] += 4e-3 * u(rng);
+    } else {
+      const double px = x[2 * i], py = x[2 * i + 1];
+      x[2 * i] = 0.75 * px + 0.2 * py + 4e-3 * u(rng);
+      x[2 * i + 1] = -0.1 * px + 1.2 * py + 4e-3 * u(rng);
+    }
+  }
+  return x;
+}
+
+Cloth sheet(int dim) {
+  GridSpec spec;
+  spec.rows = 5;
+  spec.cols = 5;
+  spec.width = 0.2;
+  spec.height = 0.2;
+  spec.dim = dim;
+  return withRest(*makeGrid(spec));
+}
+
+}  // namespace
+
+// The table, against stencils worked out by hand.
+TEST(VertexIncidence, ListsEachVertexsElementsAndSlots) {
+  const std::vector<std::vector<Index>> stencils = {{0, 1, 2}, {2, 1, 3}, {3, 4}};
+  const VertexIncidence table(6, stencils);
+  ASSERT_EQ(table.numVertices(), 6);
+  auto uses = [&](Index v) {
+    std::vector<std::pair<Index, int>> out;
+    for (const auto& use : table.uses(v)) out.emplace_back(use.element, use.slot);
+    return out;
+  };
+  using U = std::vector<std::pair<Index, int>>;
+  EXPECT_EQ(uses(0), (U{{0, 0}}));
+  EXPECT_EQ(uses(1), (U{{0, 1}, {1, 1}}));
+  EXPECT_EQ(uses(2), (U{{0, 2}, {1, 0}}));
+  EXPECT_EQ(uses(3), (U{{1, 2}, {2, 0}}));
+  EXPECT_EQ(uses(4), (U{{2, 1}}));
+  EXPECT_TRUE(uses(5).empty());  // a vertex no element uses
+}
+
+TEST(VertexAccess, MembraneOfEveryMaterialPlanarAndCloth) {
+  for (int dim : {2, 3}) {
+    const Cloth c = sheet(dim);
+    const VectorX x = deformed(*c.mesh, 11);
+    double projected = 0.0;
+    for (const std::string& name : materialNames()) {
+      const Expected<Material> material = makeMaterial(name, Lame{30.0, 50.0});
+      ASSERT_TRUE(material.ok()) << name;
+      std::unique_ptr<EnergyTerm> term = makeMembraneTerm(c.mesh, c.rest, *material);
+      ASSERT_TRUE(term->hasVertexDerivatives()) << name;
+      projected = std::max(projected, check(probeOf(*term, *c.mesh), x));
+    }
+    // The projected path is exercised: some material is not convex at this deformation.
+    EXPECT_GT(projected, 1e-3) << dim << "D";
+  }
+}
+
+TEST(VertexAccess, EveryBendingModel) {
+  const Cloth c = sheet(3);
+  const VectorX x = deformed(*c.mesh, 12);
+  for (const std::string& model : bendingModelNames()) {
+    std::unique_ptr<EnergyTerm> term = makeTerm(c, model, 2e-3);
+    ASSERT_TRUE(term->hasVertexDerivatives()) << model;
+    Probe p = probeOf(*term, *c.mesh);
+    // The mid-edge model projects the assembled Hessian per hinge, an element per element: its
+    // projected block is only checked to be PSD.
+    p.projectedIsAssembled = model != "midedge";
+    const double projected = check(p, x);
+    if (model == "dihedral") {
+      EXPECT_GT(projected, 1e-6) << "the projection is exercised";
+    }
+  }
+}
+
+// The air, a dissipative term: its share of Phi at v = gamma (x - xc), with normals and areas
+// lagged at the start of the substep.
+TEST(VertexAccess, Air) {
+  const Cloth c = sheet(3);
+  const VectorX x0 = deformed(*c.mesh, 13);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  VectorX x = x0;
+  for (Index i = 0; i < x.size(); ++i) x[i] += 0.02 * u(rng);  // up to 2 m/s over 10 ms
+  AirSettings settings;
+  settings.wind = Eigen::Vector3d(0.5, -0.3, 0.2);
+  AirModel air(c.mesh, settings);
+  AirTerm term;
+  term.bind(air);
+  EXPECT_TRUE(term.capabilities().perVertex);
+  const std::vector<char> pinned(static_cast<std::size_t>(x.size()), 0);
+  SubstepFrame frame;
+  frame.x0 = &x0;
+  frame.xc = &x0;
+  frame.h = 0.01;
+  frame.c2 = 1e-4;
+  frame.gamma = 100.0;
+  frame.pinned = &pinned;
+  term.beginSubstep(frame);
+  std::vector<std::vector<Index>> triangles;
+  for (const Triangle& t : c.mesh->triangles) triangles.push_back({t[0], t[1], t[2]});
+  auto pattern = std::make_shared<SparseHessian>(c.mesh->numVertices(), 3, triangles);
+  check(probeOf<TermRequest>(term, pattern, 3), x);
+}
+
+// The Model sums its terms; it offers the access only when all of them do.
+TEST(VertexAccess, ModelSumsItsTerms) {
+  const Cloth c = sheet(3);
+  const VectorX x = deformed(*c.mesh, 14);
+  const VectorX masses = lumpedMasses(*c.mesh, *c.rest, 0.2);
+  Model model(c.mesh, c.rest, masses);
+  model.addTerm(makeMembraneTerm(c.mesh, c.rest, *makeMaterial("stvk", Lame{30.0, 50.0})),
+                TermKind::Membrane);
+  std::unique_ptr<EnergyTerm> bending = makeTerm(c, "dihedral", 2e-3);
+  EnergyTerm& dihedral = *bending;
+  model.addTerm(std::move(bending), TermKind::Bending);
+  ASSERT_TRUE(model.hasVertexDerivatives());
+  ElasticTerm elastic;
+  elastic.bind(model);
+  EXPECT_TRUE(elastic.capabilities().perVertex);
+  for (Index v : {0, 7, 12, 24}) {
+    VertexDerivatives sum, membrane, bend;
+    ASSERT_TRUE(elastic.vertexDerivatives(x, v, HessianMode::Exact, sum));
+    ASSERT_TRUE(model.term(0).vertexDerivatives(x, v, HessianMode::Exact, membrane));
+    ASSERT_TRUE(dihedral.vertexDerivatives(x, v, HessianMode::Exact, bend));
+    EXPECT_LE((sum.force - membrane.force - bend.force).norm(), 1e-14 * sum.force.norm());
+    EXPECT_LE((sum.hessian - membrane.hessian - bend.hessian).norm(), 1e-14 * sum.hessian.norm());
+  }
+}
+
+// Outside the domain (an inverted Neo-Hookean triangle) the vertices of the bad element get
+// false; a vertex away from it is still served.
+TEST(VertexAccess, RefusesAVertexOfAnElementOutsideItsDomain) {
+  const Cloth c = sheet(2);
+  VectorX x = c.mesh->restPositions;
+  const Triangle& bad = c.mesh->triangles[0];
+  // Mirror the first triangle's first vertex through its opposite edge: the triangle inverts.
+  const Eigen::Vector2d p1 = x.segment<2>(2 * bad[1]), p2 = x.segment<2>(2 * bad[2]);
+  const Eigen::Vector2d e = (p2 - p1).normalized();
+  const Eigen::Vector2d p0 = x.segment<2>(2 * bad[0]);
+  const Eigen::Vector2d foot = p1 + e * e.dot(p0 - p1);
+  x.segment<2>(2 * bad[0]) = 2.0 * foot - p0;
+  std::unique_ptr<EnergyTerm> term =
+      makeMembraneTerm(c.mesh, c.rest, *makeMaterial("neo_hookean", Lame{30.0, 50.0}));
+  VertexDerivatives d;
+  for (Index v : bad) EXPECT_FALSE(term->vertexDerivatives(x, v, HessianMode::Exact, d)) << v;
+  EXPECT_TRUE(term->vertexDerivatives(x, c.mesh->numVertices() - 1, HessianMode::Exact, d));
+}
