@@ -92,15 +92,37 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
     return worst;
   }
 
-  // Constraint form (energy_forms.h), one element per triangle: every material has one.
-  const ConstraintForm* constraintForm() const override { return this; }
+  // Constraint form (energy_forms.h), one element per triangle, when the material has one
+  // (kHasConstraintForm); else none, and XPBD refuses the material.
+  const ConstraintForm* constraintForm() const override {
+    if constexpr (kHasConstraintForm<Model>) return this;
+    return nullptr;
+  }
   Index numElements() const override { return mesh_->numTriangles(); }
   int verticesPerElement() const override { return 3; }
-  int constraintsPerElement() const override { return Model::kNumConstraints; }
+  int constraintsPerElement() const override {
+    if constexpr (kHasConstraintForm<Model>) return Model::kNumConstraints;
+    return 0;
+  }
   const Index* elementVertices(Index element) const override {
     return mesh_->triangles[element].data();
   }
   bool elementConstraints(Index t, const VectorX& x, double* C, double* jacobian) const override {
+    if constexpr (kHasConstraintForm<Model>) {
+      return constraintsOf(t, x, C, jacobian);
+    }
+    return false;
+  }
+  void elementConstraintStiffness(Index t, double* K) const override {
+    if constexpr (kHasConstraintForm<Model>) {
+      const ConstraintStiffness Km = rest_->restArea[t] * model_.constraintStiffness();
+      for (int i = 0; i < Km.rows(); ++i) {
+        for (int j = 0; j < Km.cols(); ++j) K[i * Km.cols() + j] = Km(i, j);
+      }
+    }
+  }
+  // Only instantiated for a material with a constraint form.
+  bool constraintsOf(Index t, const VectorX& x, double* C, double* jacobian) const {
     const DefGrad<D> F = deformationGradient<D>(*mesh_, *rest_, x, t);
     if (!model_.template inDomain<D>(F)) return false;
     ConstraintValues values;
@@ -118,12 +140,6 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
       }
     }
     return true;
-  }
-  void elementConstraintStiffness(Index t, double* K) const override {
-    const ConstraintStiffness Km = rest_->restArea[t] * model_.constraintStiffness();
-    for (int i = 0; i < Km.rows(); ++i) {
-      for (int j = 0; j < Km.cols(); ++j) K[i * Km.cols() + j] = Km(i, j);
-    }
   }
 
   // Projective form of ARAP: A mu |F - R|^2 = (2 mu A)/2 |S x - R|^2 per coordinate row of F,

@@ -8,6 +8,7 @@
 
 #include "fem_cloth/core/bending.h"
 #include "fem_cloth/core/energy_forms.h"
+#include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/mesh.h"
@@ -82,6 +83,23 @@ TEST(EnergyForms, EveryMembraneHasAConstraintFormOnlyArapClothAProjectiveOne) {
       EXPECT_EQ(term->projectiveForm() != nullptr, model == "arap" && dim == 3) << model << " dim " << dim;
     }
   }
+}
+
+// A model without the optional members of the constraint form (material.h).
+struct WithoutConstraintForm {
+  static constexpr const char* kName = "without_form";
+};
+
+TEST(EnergyForms, AMaterialsConstraintFormIsOptional) {
+  static_assert(kHasConstraintForm<StVenantKirchhoff>);
+  static_assert(!kHasConstraintForm<WithoutConstraintForm>);
+  using Mixed = std::variant<StVenantKirchhoff, WithoutConstraintForm, Arap>;
+  EXPECT_EQ(namesWithConstraintForm<Mixed>(), (std::vector<std::string>{"stvk", "arap"}));
+  // The six models all have one, so XPBD takes every material (an empty list means all).
+  EXPECT_EQ(materialsWithConstraintForm(), materialNames());
+  const Expected<const IntegratorEntry*> xpbd = findIntegrator("xpbd");
+  ASSERT_TRUE(xpbd.ok());
+  EXPECT_TRUE((*xpbd)->supports.materials.empty());
 }
 
 TEST(EnergyForms, BendingFormsFollowTheModel) {

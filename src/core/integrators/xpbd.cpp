@@ -10,6 +10,7 @@
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/integrators/step_common.h"
+#include "fem_cloth/core/materials/materials.h"
 
 namespace fem_cloth {
 
@@ -341,6 +342,9 @@ IntegratorEntry xpbdEntry() {
   // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge bending
   // element reads 12 vertices and has no constraint form.
   e.supports.bendingModels = {"quadratic", "dihedral"};
+  // The materials with a constraint form (optional for a material; empty when all have one).
+  e.supports.materials = materialsWithConstraintForm();
+  if (e.supports.materials.size() == materialNames().size()) e.supports.materials.clear();
   e.supports.selfContact = false;  // obstacles by projection after every sweep
   e.keys = {"iterations"};
   e.read = [](const SettingsReader& r, Scene& s) { return r.integer("iterations", s.iterations); };

@@ -9,6 +9,11 @@ const std::vector<std::string>& materialNames() {
   return names;
 }
 
+const std::vector<std::string>& materialsWithConstraintForm() {
+  static const std::vector<std::string> names = namesWithConstraintForm<Material>();
+  return names;
+}
+
 Expected<Material> makeMaterial(const std::string& name, const Lame& lame) {
   if (name == LinearElasticity::kName) return Material(LinearElasticity(lame));
   if (name == StVenantKirchhoff::kName) return Material(StVenantKirchhoff(lame));

@@ -17,12 +17,16 @@
 //   template <int D> DefGrad<D> pk1(F, T) const;
 //   template <int D> StressHessian<D> hessian(F, T) const;
 //   template <int D> StressHessian<D> projectedHessian(F, T) const;
-//   static constexpr int kNumConstraints;       // constraint form, see below
-//   ConstraintStiffness constraintStiffness() const;
-//   template <int D> bool constraints(F, T, ConstraintValues&, ConstraintJacobian<D>&) const;
 // pk1, hessian and projectedHessian must only be called inside the domain.
 //
-// Constraint form (for XPBD): every model also writes its energy exactly as
+// Optional members, the constraint form XPBD visits (see below; kHasConstraintForm in
+// materials.h detects them at compile time, and the integrator registry lets XPBD take only the
+// models that have them):
+//   static constexpr int kNumConstraints;
+//   ConstraintStiffness constraintStiffness() const;
+//   template <int D> bool constraints(F, T, ConstraintValues&, ConstraintJacobian<D>&) const;
+//
+// Constraint form (for XPBD): a model that has one writes its energy exactly as
 //   psi(F) = 1/2 C(F)^T K C(F)
 // with k <= 3 signed constraint functions C(F), zero at rest, and a constant k x k matrix K.
 // Signed matters: a constraint such as sqrt(2 psi) has a cusp at rest, where its gradient flips,
