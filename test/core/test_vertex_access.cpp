@@ -12,9 +12,11 @@
 #include <iostream>
 #include <limits>
 #include <random>
+#include <type_traits>
 
 #include "bending_test_support.h"
 #include "fem_cloth/core/air.h"
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/model.h"
@@ -36,6 +38,10 @@ struct Probe {
   // Whether the projected block must equal the assembled projected Hessian's (it projects per
   // element the way the per-vertex path does).
   bool projectedIsAssembled = true;
+  // Whether the exact block is the exact Hessian's (else, for the contact, the assembled PSD
+  // one's, and the block is not compared with differences of the gradient).
+  bool exactBlocks = true;
+  double step = 0.0;  // m, of the differences; 0: 1e-6 of the span of x
 };
 
 // A term of the Model (Request = EvalRequest) or of the incremental potential (TermRequest),
@@ -54,14 +60,19 @@ Probe probeOf(Term& term, std::shared_ptr<SparseHessian> pattern, int dim) {
     term.evaluate(x, r);
     return g;
   };
-  p.hessian = [&term, pattern](const VectorX& x, HessianMode mode) {
+  p.hessian = [&term, pattern](const VectorX& x, HessianMode mode) -> Eigen::MatrixXd {
     pattern->setZero();
     Request r;
     r.energy = false;
     r.hessian = pattern.get();
     r.hessianMode = mode;
+    // A potential's term may couple vertices the pattern does not (self-contact): triplets.
+    std::vector<Eigen::Triplet<double>> outside;
+    if constexpr (std::is_same_v<Request, TermRequest>) r.outside = &outside;
     term.evaluate(x, r);
-    return Eigen::MatrixXd(pattern->matrix());
+    Eigen::SparseMatrix<double> extra(x.size(), x.size());
+    extra.setFromTriplets(outside.begin(), outside.end());
+    return Eigen::MatrixXd(pattern->matrix()) + Eigen::MatrixXd(extra);
   };
   p.vertex = [&term](const VectorX& x, Index v, HessianMode mode, VertexDerivatives& out) {
     return term.vertexDerivatives(x, v, mode, out);
@@ -88,7 +99,7 @@ double check(const Probe& p, const VectorX& x) {
   const double fScale = std::max(g.cwiseAbs().maxCoeff(), 1e-300);
   const double hScale = std::max(H.cwiseAbs().maxCoeff(), 1e-300);
   const double span = (x.maxCoeff() - x.minCoeff());
-  const double step = 1e-6 * span;
+  const double step = p.step > 0.0 ? p.step : 1e-6 * span;
   double forceFd = 0.0, forceRow = 0.0, blockFd = 0.0, blockExact = 0.0, blockProjected = 0.0;
   double negative = 0.0, projection = 0.0;
   for (Index v = 0; v < n; ++v) {
@@ -112,7 +123,7 @@ double check(const Probe& p, const VectorX& x) {
       forceRow = std::max(forceRow, std::abs(exact.force[a] + g[d * v + a]));
       const VectorX column = (p.gradient(xp) - p.gradient(xm)) / (2 * step);
       for (int b = 0; b < d; ++b) {
-        blockFd = std::max(blockFd, std::abs(exact.hessian(b, a) - column[d * v + b]));
+        if (p.exactBlocks) blockFd = std::max(blockFd, std::abs(exact.hessian(b, a) - column[d * v + b]));
         blockExact = std::max(blockExact, std::abs(exact.hessian(b, a) - H(d * v + b, d * v + a)));
         if (p.projectedIsAssembled) {
           blockProjected =
@@ -295,4 +306,104 @@ TEST(VertexAccess, RefusesAVertexOfAnElementOutsideItsDomain) {
   VertexDerivatives d;
   for (Index v : bad) EXPECT_FALSE(term->vertexDerivatives(x, v, HessianMode::Exact, d)) << v;
   EXPECT_TRUE(term->vertexDerivatives(x, c.mesh->numVertices() - 1, HessianMode::Exact, d));
+}
+
+// The contact: two sheets 0.6 mm apart (self-contact, with friction) resting 0.5 mm above a
+// plane and touching a sphere (barriers and friction), dHat = 1 mm; the obstacles, the
+// self-contact, or both.
+struct ContactFixture {
+  Cloth cloth;
+  std::unique_ptr<Model> model;
+  std::unique_ptr<ContactModel> contact;
+  ContactTerm term;
+  VectorX x0, x;
+  std::vector<char> pinned;
+  SubstepFrame frame;
+  std::shared_ptr<SparseHessian> pattern;
+
+  ContactFixture(bool obstacles, bool self) {
+    const Cloth lower = sheet(3);
+    Mesh both = *lower.mesh;
+    const Index n = lower.mesh->numVertices();
+    both.restPositions.conservativeResize(6 * n);
+    for (Index i = 0; i < n; ++i) {
+      both.restPositions.segment<3>(3 * (n + i)) =
+          lower.mesh->restPositions.segment<3>(3 * i) + Eigen::Vector3d(0.013, 0.007, 6e-4);
+    }
+    for (const Triangle& t : lower.mesh->triangles) both.triangles.push_back({t[0] + n, t[1] + n, t[2] + n});
+    cloth = withRest(both);
+    model = std::make_unique<Model>(cloth.mesh, cloth.rest, lumpedMasses(*cloth.mesh, *cloth.rest, 0.2));
+    std::vector<Obstacle> shapes;
+    if (obstacles) {
+      Obstacle plane;
+      plane.name = "table";
+      plane.shape.type = ShapeType::Plane;
+      plane.geometry.translation() = Eigen::Vector3d(0.0, 0.0, -5e-4);
+      plane.friction = 0.5;
+      Obstacle ball;
+      ball.name = "ball";
+      ball.shape.type = ShapeType::Sphere;
+      ball.shape.radius = 0.05;
+      // 0.5 mm above the upper sheet's middle vertex (n + 12).
+      ball.geometry.translation() = Eigen::Vector3d(0.113, 0.107, 0.05 + 1.1e-3);
+      ball.friction = 0.4;
+      shapes = {plane, ball};
+    }
+    ContactSettings settings;
+    settings.distance = 1e-3;
+    settings.selfCollision = self;
+    settings.selfFriction = 0.3;
+    contact = std::make_unique<ContactModel>(*model, shapes, settings, 9.81);
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    x0 = cloth.mesh->restPositions;
+    for (Index i = 0; i < x0.size(); ++i) x0[i] += 5e-5 * u(rng);
+    x = x0;
+    for (Index i = 0; i < x.size(); ++i) x[i] += 5e-5 * u(rng);
+    pinned.assign(static_cast<std::size_t>(x.size()), 0);
+    contact->beginStep(0.0, 0.01);
+    term.bind(*contact);
+    frame.x0 = &x0;
+    frame.xc = &x0;
+    frame.h = 0.01;
+    frame.c2 = 1e-4;
+    frame.gamma = 100.0;
+    frame.pinned = &pinned;
+    term.beginSubstep(frame);
+    term.prepareStep(x, VectorX::Zero(x.size()));
+    std::unique_ptr<EnergyTerm> membrane =
+        makeMembraneTerm(cloth.mesh, cloth.rest, *makeMaterial("stvk", Lame{1.0, 1.0}));
+    pattern = std::make_shared<SparseHessian>(patternFor(*cloth.mesh, *membrane));
+  }
+
+  Probe probe() {
+    Probe p = probeOf<TermRequest>(term, pattern, 3);
+    p.exactBlocks = false;
+    p.step = 2e-8;  // m: the barriers vary on the scale of the distances (0.5 mm)
+    return p;
+  }
+
+  // The largest force on the vertices [first, last) (N).
+  double largestForce(Index first, Index last) const {
+    double f = 0.0;
+    VertexDerivatives d;
+    for (Index v = first; v < last; ++v) {
+      EXPECT_TRUE(term.vertexDerivatives(x, v, HessianMode::Exact, d));
+      f = std::max(f, d.force.norm());
+    }
+    return f;
+  }
+};
+
+TEST(VertexAccess, ContactBarriersAndFriction) {
+  for (const auto& [obstacles, self] : {std::pair{true, false}, {false, true}, {true, true}}) {
+    ContactFixture f(obstacles, self);
+    EXPECT_TRUE(f.term.capabilities().perVertex);
+    check(f.probe(), f.x);
+    // Every part it has takes part: without self-contact only the obstacles push (the lower
+    // sheet on the table, the ball's vertices of the upper sheet); with it both sheets.
+    const Index n = f.cloth.mesh->numVertices() / 2;
+    EXPECT_GT(f.largestForce(0, n), 0.0) << obstacles << self;
+    EXPECT_GT(f.largestForce(n, 2 * n), 0.0) << obstacles << self;
+  }
 }

@@ -59,18 +59,23 @@ class VertexIncidence {
   /// stencils[e]: the vertices of element e (any iterable of Index), each in [0, numVertices).
   template <class Stencils>
   VertexIncidence(Index numVertices, const Stencils& stencils) {
+    assign(numVertices, stencils);
+  }
+  /// Rebuilds the table for new stencils, reusing its storage (no allocation once grown).
+  template <class Stencils>
+  void assign(Index numVertices, const Stencils& stencils) {
     start_.assign(static_cast<std::size_t>(numVertices) + 1, 0);
     for (const auto& stencil : stencils) {
       for (Index v : stencil) ++start_[static_cast<std::size_t>(v) + 1];
     }
     for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
     uses_.resize(static_cast<std::size_t>(start_.back()));
-    std::vector<Index> next(start_.begin(), start_.end() - 1);
+    next_.assign(start_.begin(), start_.end() - 1);
     Index element = 0;
     for (const auto& stencil : stencils) {
       int slot = 0;
       for (Index v : stencil) {
-        uses_[static_cast<std::size_t>(next[static_cast<std::size_t>(v)]++)] = Use{element, slot++};
+        uses_[static_cast<std::size_t>(next_[static_cast<std::size_t>(v)]++)] = Use{element, slot++};
       }
       ++element;
     }
@@ -86,6 +91,7 @@ class VertexIncidence {
  private:
   std::vector<Index> start_;
   std::vector<Use> uses_;
+  std::vector<Index> next_;  // scratch of assign()
 };
 
 /// The plane a grid is laid out in (3D only): its first axis runs along `cols`, its second along

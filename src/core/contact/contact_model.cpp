@@ -110,6 +110,10 @@ void ContactModel::setSubstepPoses(double f0, double f1) {
 
 SignedDistance ContactModel::obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd) {
   ++checks_;
+  return distanceAt(k, p, atEnd);
+}
+
+SignedDistance ContactModel::distanceAt(std::size_t k, const Eigen::Vector3d& p, bool atEnd) const {
   const Eigen::Isometry3d& pose = atEnd ? poseEnd_[k] : poseStart_[k];
   const Eigen::Isometry3d& inverse = atEnd ? inverseEnd_[k] : inverseStart_[k];
   SignedDistance sd = signedDistance(obstacles_[k].shape, inverse * p);
@@ -192,6 +196,17 @@ void ContactModel::selfCandidates(const VectorX& x, const VectorX* dx) {
                      return ea[0] != eb[0] && ea[0] != eb[1] && ea[1] != eb[0] && ea[1] != eb[1];
                    },
                    edgeEdge_);
+  pairStencils_.clear();
+  for (const auto& [p, t] : pointTriangle_) {
+    const Triangle& tri = mesh.triangles[static_cast<std::size_t>(t)];
+    pairStencils_.push_back({p, tri[0], tri[1], tri[2]});
+  }
+  for (const auto& [ia, ib] : edgeEdge_) {
+    const auto& ea = edges_[static_cast<std::size_t>(ia)];
+    const auto& eb = edges_[static_cast<std::size_t>(ib)];
+    pairStencils_.push_back({ea[0], ea[1], eb[0], eb[1]});
+  }
+  pairsOfVertex_.assign(n, pairStencils_);
 }
 
 double ContactModel::edgeMollifierThreshold(Index ea, Index eb) const {
@@ -268,6 +283,11 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   }
   // The relative displacement of a friction contact is measured from xc.
   frictionOrigin_ = xc;
+  frictionStencils_.clear();
+  for (const Friction& f : friction_) {
+    frictionStencils_.push_back({f.vertices.data(), f.vertices.data() + f.count});
+  }
+  frictionOfVertex_.assign(mesh_->numVertices(), frictionStencils_);
 }
 
 Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x) {
@@ -442,105 +462,142 @@ bool ContactModel::addObstacleBarriers(const VectorX& x, Assembly& a) {
       a.note(sd.distance, dHat);
       if (!(sd.distance > 0.0)) return false;
       if (sd.distance >= dHat) continue;
-      const double d = sd.distance, s = d * d, w = kappa_ * mass_[i];
-      a.energy += w * barrier::value(s, sHat_);
-      const double b1 = barrier::first(s, sHat_);
-      const Eigen::Vector3d g = w * b1 * 2.0 * d * sd.normal;  // dE/dx_i
+      const VertexBarrier b = vertexBarrier(i, sd);
+      a.energy += b.energy;
+      const Eigen::Vector3d& g = b.gradient;
       if (a.gradient != nullptr) a.gradient->segment<3>(3 * i) += a.scale * g;
       if (a.wrench != nullptr) {
         (*a.wrench)[k].force += g;  // the cloth pushes the obstacle with +dE/dx
         (*a.wrench)[k].torque += sd.closest.cross(g);
       }
       if (a.hessian != nullptr) {
-        // With s = d^2: d2s = 2 n n^T + 2 d Hd, and the Hessian is
-        //   w ((4 b'' s + 2 b') n n^T + 2 b' d Hd).
-        // An exact distance has |grad d| = 1, so Hd n = 0, and outside a convex shape Hd is
-        // positive semi-definite: its part (times b' < 0) is negative across the normal, and the
-        // PSD projection keeps the normal part alone (the same as barrierGaussNewtonHessian).
-        const double along = std::max(4.0 * barrier::second(s, sHat_) * s + 2.0 * b1, 0.0);
-        addBlock(i, i, (a.scale * w * along) * (sd.normal * sd.normal.transpose()), a.hessian,
-                 a.outside);
+        addBlock(i, i, (a.scale * b.weight * b.along) * (sd.normal * sd.normal.transpose()),
+                 a.hessian, a.outside);
       }
     }
   }
   return true;
 }
 
+ContactModel::VertexBarrier ContactModel::vertexBarrier(Index i, const SignedDistance& sd) const {
+  // kappa m b(d^2), d the signed distance (0 < d < dHat).
+  VertexBarrier out;
+  const double d = sd.distance, s = d * d, w = kappa_ * mass_[i];
+  out.energy = w * barrier::value(s, sHat_);
+  const double b1 = barrier::first(s, sHat_);
+  out.gradient = w * b1 * 2.0 * d * sd.normal;
+  // With s = d^2: d2s = 2 n n^T + 2 d Hd, and the Hessian is
+  //   w ((4 b'' s + 2 b') n n^T + 2 b' d Hd).
+  // An exact distance has |grad d| = 1, so Hd n = 0, and outside a convex shape Hd is positive
+  // semi-definite: its part (times b' < 0) is negative across the normal, and the PSD
+  // projection keeps the normal part alone (the same as barrierGaussNewtonHessian).
+  out.weight = w;
+  out.along = std::max(4.0 * barrier::second(s, sHat_) * s + 2.0 * b1, 0.0);
+  return out;
+}
+
 bool ContactModel::addPointTriangleBarriers(const VectorX& x, Assembly& a) {
   const bool wantHessian = a.hessian != nullptr;
   const bool wantGradient = a.wantsGradient();
-  Vector12 gs;
+  PairBarrier b;
+  double distance = 0.0;
   for (const auto& [p, t] : pointTriangle_) {
     const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
     ++checks_;
-    const PrimitiveDistance pd =
-        pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
-                              wantGradient ? &gs : nullptr);
-    a.note(std::sqrt(pd.squared), settings_.distance);
-    if (!(pd.squared > 0.0)) return false;
-    if (pd.squared >= sHat_) continue;
-    const double w = kappa_ * mass_[p];
-    a.energy += w * barrier::value(pd.squared, sHat_);
+    const bool ok = pointTriangleBarrier(x, p, t, wantGradient, wantHessian, b, distance);
+    a.note(distance, settings_.distance);
+    if (!ok) return false;
+    if (!b.active) continue;
+    a.energy += b.energy;
     if (!wantGradient) continue;
-    const double b1 = barrier::first(pd.squared, sHat_);
-    Matrix12 H;
-    if (wantHessian) H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
-    scatter({p, tri[0], tri[1], tri[2]}, w * b1 * gs, wantHessian ? &H : nullptr, a);
+    scatter({p, tri[0], tri[1], tri[2]}, b.gradient, wantHessian ? &b.hessian : nullptr, a);
   }
+  return true;
+}
+
+bool ContactModel::pointTriangleBarrier(const VectorX& x, int p, int t, bool wantGradient,
+                                        bool wantHessian, PairBarrier& out,
+                                        double& distance) const {
+  const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+  Vector12 gs;
+  const PrimitiveDistance pd =
+      pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
+                            wantGradient ? &gs : nullptr);
+  distance = std::sqrt(pd.squared);
+  out.active = false;
+  if (!(pd.squared > 0.0)) return false;
+  if (pd.squared >= sHat_) return true;
+  out.active = true;
+  const double w = kappa_ * mass_[p];
+  out.energy = w * barrier::value(pd.squared, sHat_);
+  if (!wantGradient) return true;
+  const double b1 = barrier::first(pd.squared, sHat_);
+  if (wantHessian) out.hessian = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
+  out.gradient = w * b1 * gs;
   return true;
 }
 
 bool ContactModel::addEdgeEdgeBarriers(const VectorX& x, Assembly& a) {
   const bool wantHessian = a.hessian != nullptr;
   const bool wantGradient = a.wantsGradient();
-  Vector12 gs, gc;
-  Matrix12 Hs, Hc;
+  PairBarrier b;
+  double distance = 0.0;
   for (const auto& [ia, ib] : edgeEdge_) {
     const auto& ea = edges_[static_cast<std::size_t>(ia)];
     const auto& eb = edges_[static_cast<std::size_t>(ib)];
     ++checks_;
-    const PrimitiveDistance pd =
-        edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
-                         wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
-    a.note(std::sqrt(pd.squared), settings_.distance);
-    if (!(pd.squared > 0.0)) return false;
-    if (pd.squared >= sHat_) continue;
-    // Mollified: e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
-    const double epsX = edgeMollifierThreshold(ia, ib);
-    const double c = edgeCrossSquared(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
-                                      wantGradient ? &gc : nullptr, wantHessian ? &Hc : nullptr);
-    const double w = kappa_ * 0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]);
-    const double e = mollifier::value(c, epsX), bv = barrier::value(pd.squared, sHat_);
-    a.energy += w * e * bv;
+    const bool ok = edgeEdgeBarrier(x, ia, ib, wantGradient, wantHessian, b, distance);
+    a.note(distance, settings_.distance);
+    if (!ok) return false;
+    if (!b.active) continue;
+    a.energy += b.energy;
     if (!wantGradient) continue;
-    const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
-    const Vector12 gb = b1 * gs, ge = e1 * gc;
-    Matrix12 H;
-    if (wantHessian && e == 1.0) {
-      H = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
-    } else if (wantHessian) {
-      // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
-      H = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
-                          gb * ge.transpose() + ge * gb.transpose() +
-                          bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
-    }
-    scatter({ea[0], ea[1], eb[0], eb[1]}, w * (e * gb + bv * ge), wantHessian ? &H : nullptr, a);
+    scatter({ea[0], ea[1], eb[0], eb[1]}, b.gradient, wantHessian ? &b.hessian : nullptr, a);
   }
   return true;
 }
 
+bool ContactModel::edgeEdgeBarrier(const VectorX& x, int ia, int ib, bool wantGradient,
+                                   bool wantHessian, PairBarrier& out, double& distance) const {
+  const auto& ea = edges_[static_cast<std::size_t>(ia)];
+  const auto& eb = edges_[static_cast<std::size_t>(ib)];
+  Vector12 gs, gc;
+  Matrix12 Hs, Hc;
+  const PrimitiveDistance pd =
+      edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
+                       wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
+  distance = std::sqrt(pd.squared);
+  out.active = false;
+  if (!(pd.squared > 0.0)) return false;
+  if (pd.squared >= sHat_) return true;
+  out.active = true;
+  // Mollified: e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
+  const double epsX = edgeMollifierThreshold(ia, ib);
+  const double c = edgeCrossSquared(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
+                                    wantGradient ? &gc : nullptr, wantHessian ? &Hc : nullptr);
+  const double w = kappa_ * 0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]);
+  const double e = mollifier::value(c, epsX), bv = barrier::value(pd.squared, sHat_);
+  out.energy = w * e * bv;
+  if (!wantGradient) return true;
+  const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
+  const Vector12 gb = b1 * gs, ge = e1 * gc;
+  if (wantHessian && e == 1.0) {
+    out.hessian = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
+  } else if (wantHessian) {
+    // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
+    out.hessian = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
+                                  gb * ge.transpose() + ge * gb.transpose() +
+                                  bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
+  }
+  out.gradient = w * (e * gb + bv * ge);
+  return true;
+}
+
 void ContactModel::addFriction(const VectorX& x, Assembly& a) const {
-  // Lagged friction: mu lambda f0(|u|), u = T^T (sum_k w_k (x_k - xc_k) - offset).
   for (const Friction& f : friction_) {
-    Eigen::Vector3d r = -f.offset;
-    for (int k = 0; k < f.count; ++k) {
-      const Index v = f.vertices[static_cast<std::size_t>(k)];
-      r += f.weights[k] * (vertex(x, v) - vertex(frictionOrigin_, v));
-    }
-    const Eigen::Vector2d u = f.tangent.transpose() * r;
-    const double y = u.norm();
-    a.energy += f.muLambda * friction::f0(y, frictionEps_);
-    const Eigen::Vector3d g = f.muLambda * friction::f1OverY(y, frictionEps_) * (f.tangent * u);
+    const FrictionShare share = frictionShare(f, x, a.hessian != nullptr);
+    a.energy += share.energy;
+    const Eigen::Vector3d& g = share.gradient;
     if (a.gradient != nullptr) {
       for (int k = 0; k < f.count; ++k) {
         a.gradient->segment<3>(3 * f.vertices[static_cast<std::size_t>(k)]) += a.scale * f.weights[k] * g;
@@ -551,18 +608,76 @@ void ContactModel::addFriction(const VectorX& x, Assembly& a) const {
       (*a.wrench)[static_cast<std::size_t>(f.obstacle)].torque += f.point.cross(g);
     }
     if (a.hessian != nullptr) {
-      // Positive semi-definite as it is (Li et al. 2020, section 5.2).
-      const Eigen::Matrix2d H2 = f.muLambda * (friction::f1OverY(y, frictionEps_) * Eigen::Matrix2d::Identity() +
-                                               friction::hessianRadialCoefficient(y, frictionEps_) * u * u.transpose());
-      const Eigen::Matrix3d H3 = f.tangent * H2 * f.tangent.transpose();
       for (int k = 0; k < f.count; ++k) {
         for (int l = 0; l < f.count; ++l) {
           addBlock(f.vertices[static_cast<std::size_t>(k)], f.vertices[static_cast<std::size_t>(l)],
-                   a.scale * f.weights[k] * f.weights[l] * H3, a.hessian, a.outside);
+                   a.scale * f.weights[k] * f.weights[l] * share.hessian, a.hessian, a.outside);
         }
       }
     }
   }
+}
+
+ContactModel::FrictionShare ContactModel::frictionShare(const Friction& f, const VectorX& x,
+                                                        bool wantHessian) const {
+  // Lagged friction: mu lambda f0(|u|), u = T^T (sum_k w_k (x_k - xc_k) - offset).
+  FrictionShare out;
+  Eigen::Vector3d r = -f.offset;
+  for (int k = 0; k < f.count; ++k) {
+    const Index v = f.vertices[static_cast<std::size_t>(k)];
+    r += f.weights[k] * (vertex(x, v) - vertex(frictionOrigin_, v));
+  }
+  const Eigen::Vector2d u = f.tangent.transpose() * r;
+  const double y = u.norm();
+  out.energy = f.muLambda * friction::f0(y, frictionEps_);
+  out.gradient = f.muLambda * friction::f1OverY(y, frictionEps_) * (f.tangent * u);
+  if (wantHessian) {
+    // Positive semi-definite as it is (Li et al. 2020, section 5.2).
+    const Eigen::Matrix2d H2 = f.muLambda * (friction::f1OverY(y, frictionEps_) * Eigen::Matrix2d::Identity() +
+                                             friction::hessianRadialCoefficient(y, frictionEps_) * u * u.transpose());
+    out.hessian = f.tangent * H2 * f.tangent.transpose();
+  }
+  return out;
+}
+
+bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivatives& out) const {
+  out = VertexDerivatives{};
+  const double dHat = settings_.distance;
+  for (std::size_t k = 0; k < obstacles_.size() && isFree(v); ++k) {
+    const SignedDistance sd = distanceAt(k, vertex(x, v), true);
+    if (!(sd.distance > 0.0)) return false;
+    if (sd.distance >= dHat) continue;
+    const VertexBarrier b = vertexBarrier(v, sd);
+    out.force -= b.gradient;
+    out.hessian += (b.weight * b.along) * (sd.normal * sd.normal.transpose());
+  }
+  if (settings_.selfCollision && pairsOfVertex_.numVertices() > v) {
+    PairBarrier b;
+    double distance = 0.0;
+    const auto pointTriangles = static_cast<Index>(pointTriangle_.size());
+    for (const VertexIncidence::Use& use : pairsOfVertex_.uses(v)) {
+      const bool ok = use.element < pointTriangles
+                          ? pointTriangleBarrier(x, pointTriangle_[use.element].first,
+                                                 pointTriangle_[use.element].second, true, true, b,
+                                                 distance)
+                          : edgeEdgeBarrier(x, edgeEdge_[use.element - pointTriangles].first,
+                                            edgeEdge_[use.element - pointTriangles].second, true,
+                                            true, b, distance);
+      if (!ok) return false;
+      if (!b.active) continue;
+      out.force -= b.gradient.segment<3>(3 * use.slot);
+      out.hessian += b.hessian.block<3, 3>(3 * use.slot, 3 * use.slot);
+    }
+  }
+  if (frictionOfVertex_.numVertices() <= v) return true;  // before the first substep
+  for (const VertexIncidence::Use& use : frictionOfVertex_.uses(v)) {
+    const Friction& f = friction_[static_cast<std::size_t>(use.element)];
+    const FrictionShare share = frictionShare(f, x, true);
+    const double w = f.weights[use.slot];
+    out.force -= w * share.gradient;
+    out.hessian += (w * w) * share.hessian;
+  }
+  return true;
 }
 
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {

@@ -217,4 +217,9 @@ double ContactTerm::prepareStep(const VectorX& x, const VectorX& dx) {
   return contact_->prepareSegment(x, dx);
 }
 
+bool ContactTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
+                                    VertexDerivatives& out) const {
+  return contact_->vertexDerivatives(x, vertex, out);
+}
+
 }  // namespace fem_cloth

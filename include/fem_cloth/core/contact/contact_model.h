@@ -121,6 +121,13 @@ class ContactModel {
   /// entries, else to `outside` as triplets. Uses the pairs of the last prepareSegment().
   double evaluate(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
                   std::vector<Eigen::Triplet<double>>* outside, double scale);
+  /// Per-vertex access (local solvers; ContactTerm::vertexDerivatives): the force on `vertex`,
+  /// -d(kappa B + D)/dx_v (N), and its 3 x 3 block of the Hessian evaluate() assembles (PSD:
+  /// the barriers' Gauss-Newton part, the lagged friction's exact Hessian), from the vertex's
+  /// obstacle barriers, the self-contact pairs of the last prepareSegment() and the substep's
+  /// friction entries that hold it. False when one of those distances is zero or negative.
+  /// Thread-safe; its distance evaluations are not counted in checks().
+  bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out) const;
   /// After a converged substep at x (from x0): contacts, work, and the obstacles' wrenches.
   void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
 
@@ -158,10 +165,36 @@ class ContactModel {
     int obstacle = -1;                                 // -1: self-contact
     Eigen::Vector3d point = Eigen::Vector3d::Zero();   // contact point (for the torque)
   };
+  /// One barrier's share: its energy, gradient (over its 1 or 4 vertices) and PSD Hessian.
+  struct VertexBarrier {
+    double energy = 0.0;
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();  // dE/dx_i
+    double weight = 0.0, along = 0.0;                    // Hessian: weight along n n^T
+  };
+  struct PairBarrier {
+    bool active = false;  // closer than dHat
+    double energy = 0.0;
+    Eigen::Matrix<double, 12, 1> gradient;
+    Eigen::Matrix<double, 12, 12> hessian;  // filled when asked
+  };
+  struct FrictionShare {
+    double energy = 0.0;
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();  // per unit weight of a vertex
+    Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();   // per unit weight product
+  };
+  VertexBarrier vertexBarrier(Index i, const SignedDistance& sd) const;
+  /// False when the distance is zero or negative; `distance` gets it either way.
+  bool pointTriangleBarrier(const VectorX& x, int p, int t, bool wantGradient, bool wantHessian,
+                            PairBarrier& out, double& distance) const;
+  bool edgeEdgeBarrier(const VectorX& x, int ia, int ib, bool wantGradient, bool wantHessian,
+                       PairBarrier& out, double& distance) const;
+  FrictionShare frictionShare(const Friction& f, const VectorX& x, bool wantHessian) const;
   void setSubstepPoses(double f0, double f1);
   void applyProjectionFriction(VectorX& x, const VectorX& xStart);
   bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
   SignedDistance obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd);
+  /// The same, not counted in checks().
+  SignedDistance distanceAt(std::size_t k, const Eigen::Vector3d& p, bool atEnd) const;
   void addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
                 std::vector<Eigen::Triplet<double>>* outside) const;
   double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
@@ -210,6 +243,17 @@ class ContactModel {
   std::vector<Eigen::Isometry3d> poseStart_, poseEnd_, inverseStart_, inverseEnd_;
   std::vector<std::pair<int, int>> pointTriangle_, edgeEdge_;
   std::vector<Friction> friction_;
+  // Per vertex: its self-contact pairs (point-triangle pairs first, then edge-edge) and its
+  // friction entries, rebuilt with them, for vertexDerivatives.
+  VertexIncidence pairsOfVertex_, frictionOfVertex_;
+  std::vector<std::array<Index, 4>> pairStencils_;
+  struct Span {
+    const Index* first;
+    const Index* last;
+    const Index* begin() const { return first; }
+    const Index* end() const { return last; }
+  };
+  std::vector<Span> frictionStencils_;
   double frictionEps_ = 0.0;  // m: eps_v / gamma
   VectorX frictionOrigin_;    // xc: relative displacements are measured from it
   std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none

@@ -133,10 +133,14 @@ class ContactTerm final : public PotentialTerm {
   void bind(ContactModel& contact) { contact_ = &contact; }
   std::string name() const override { return "contact"; }
   TermRole role() const override { return TermRole::Conservative; }
-  TermCapabilities capabilities() const override { return {true, true, false, true}; }
+  TermCapabilities capabilities() const override { return {true, true, true, true}; }
   void beginSubstep(const SubstepFrame& frame) override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
   double prepareStep(const VectorX& x, const VectorX& dx) override;
+  /// ContactModel::vertexDerivatives: the block of the assembled (PSD) Hessian in both modes,
+  /// from the pairs of the last prepareStep().
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
 
  private:
   ContactModel* contact_ = nullptr;
