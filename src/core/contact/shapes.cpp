@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "fem_cloth/core/enum_names.h"
+
 namespace fem_cloth {
 
 const std::vector<std::string>& shapeTypeNames() {
@@ -10,8 +12,10 @@ const std::vector<std::string>& shapeTypeNames() {
   return names;
 }
 
-std::string shapeTypeName(ShapeType type) {
-  return shapeTypeNames()[static_cast<std::size_t>(type)];
+std::string shapeTypeName(ShapeType type) { return enumName(shapeTypeNames(), type); }
+
+std::optional<ShapeType> shapeTypeFromName(const std::string& name) {
+  return enumFromName<ShapeType>(shapeTypeNames(), name);
 }
 
 namespace {

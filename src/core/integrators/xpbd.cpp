@@ -340,7 +340,7 @@ IntegratorEntry xpbdEntry() {
   e.summary = "extended position-based dynamics on the FEM energy (Gauss-Seidel over elements)";
   // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge bending
   // element reads 12 vertices and has no constraint form.
-  e.supports.bendingModels = {"quadratic", "dihedral"};
+  e.supports.bendingModels = {BendingModel::Quadratic, BendingModel::Dihedral};
   e.supports.selfContact = false;  // obstacles by projection after every sweep
   e.keys = {"iterations"};
   e.read = [](const SettingsReader& r, Scene& s) { return r.integer("iterations", s.iterations); };

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,9 +24,11 @@ namespace fem_cloth {
 
 enum class ShapeType { Plane, Sphere, Box, Capsule };
 
-/// The shape type names used in scenes: plane, sphere, box, capsule.
+/// The shape type names used in scenes, in the order of ShapeType: plane, sphere, box, capsule.
 const std::vector<std::string>& shapeTypeNames();
 std::string shapeTypeName(ShapeType type);
+/// The shape type called `name`, if there is one.
+std::optional<ShapeType> shapeTypeFromName(const std::string& name);
 
 struct Shape {
   ShapeType type = ShapeType::Plane;

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/bending_model.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
@@ -32,7 +33,7 @@ struct IntegratorCapabilities {
   /// material.model values it simulates; empty: every material.
   std::vector<std::string> materials;
   /// bending.model values it simulates (when bending.stiffness > 0); empty: every model.
-  std::vector<std::string> bendingModels;
+  std::vector<BendingModel> bendingModels;
   bool planar = true;            ///< 2D meshes (mesh.dim 2)
   bool obstacles = true;         ///< contact with obstacles
   bool selfContact = false;      ///< contact.self_collision
