@@ -34,14 +34,23 @@ constexpr double kMinModulus = 1.0;         // Pa: E, mu
 constexpr double kMaxModulus = 1e12;        // Pa: E, mu, lambda (diamond: 1.2e12)
 constexpr double kMinClothSize = 1e-4;      // m: a grid's width and height, a mesh's extent
 constexpr double kMaxClothSize = 1e3;       // m
-constexpr double kMinObstacleSize = 1e-6;   // m: radii and box sizes
+
+}  // namespace
 
 Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
   if (!v.allFinite()) return Error{key + " must be finite"};
   return Status::success();
 }
 
-}  // namespace
+Status boundedPosition(const Eigen::Vector3d& p, const std::string& key) {
+  FEM_CLOTH_CHECK(finiteVector(p, key));
+  if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) {
+    return Error{key + " must lie within " + numberText(kMaxCoordinate) +
+                 " m of the origin in every coordinate, got [" + numberText(p.x()) + ", " +
+                 numberText(p.y()) + ", " + numberText(p.z()) + "]"};
+  }
+  return Status::success();
+}
 
 // The sane ranges of docs/scenes.md: finite values far outside what any cloth, time step or
 // load can mean (damping.mass: 1e300) are refused like non-finite ones, before they overflow
@@ -80,17 +89,6 @@ Status boundedVector(const Eigen::Vector3d& v, double maxNorm, const std::string
   if (v.norm() > maxNorm) {
     return Error{key + " must be at most " + numberText(maxNorm) + " " + unit + " long, got " +
                  numberText(v.norm()) + " " + unit};
-  }
-  return Status::success();
-}
-
-/// A position (m): every coordinate within kMaxCoordinate of the origin.
-Status boundedPosition(const Eigen::Vector3d& p, const std::string& key) {
-  FEM_CLOTH_CHECK(finiteVector(p, key));
-  if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) {
-    return Error{key + " must lie within " + numberText(kMaxCoordinate) +
-                 " m of the origin in every coordinate, got [" + numberText(p.x()) + ", " +
-                 numberText(p.y()) + ", " + numberText(p.z()) + "]"};
   }
   return Status::success();
 }
@@ -289,39 +287,7 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) 
   }
   o.geometry.linear() = rotationFromRpy(e.orientation);
   o.geometry.translation() = e.center;
-  switch (o.shape.type) {
-    case ShapeType::Plane: {
-      FEM_CLOTH_CHECK(boundedPosition(e.point, key + ".point"));
-      FEM_CLOTH_CHECK(finiteVector(e.normal, key + ".normal"));
-      // Any length, but one whose direction is defined: not zero, not so small or large that
-      // normalising it under- or overflows.
-      if (!(e.normal.norm() > 1e-100 && e.normal.norm() < 1e100)) {
-        return Error{key + ".normal must not be zero, got length " + numberText(e.normal.norm())};
-      }
-      // The shape frame's z axis along the normal.
-      o.geometry.linear() =
-          Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), e.normal.normalized()).toRotationMatrix();
-      o.geometry.translation() = e.point;
-      break;
-    }
-    case ShapeType::Sphere:
-      FEM_CLOTH_CHECK(inRange(e.radius, kMinObstacleSize, kMaxCoordinate, key + ".radius", "m"));
-      o.shape.radius = e.radius;
-      break;
-    case ShapeType::Box:
-      for (int k = 0; k < 3; ++k) {
-        FEM_CLOTH_CHECK(inRange(e.size[k], kMinObstacleSize, kMaxCoordinate,
-                                key + ".size[" + std::to_string(k) + "]", "m"));
-      }
-      o.shape.halfExtents = 0.5 * e.size;
-      break;
-    case ShapeType::Capsule:
-      FEM_CLOTH_CHECK(inRange(e.radius, kMinObstacleSize, kMaxCoordinate, key + ".radius", "m"));
-      FEM_CLOTH_CHECK(inRange(e.length, 0.0, kMaxCoordinate, key + ".length", "m"));
-      o.shape.radius = e.radius;
-      o.shape.halfLength = 0.5 * e.length;
-      break;
-  }
+  FEM_CLOTH_CHECK(shapeEntry(e.type).make(e, key, o));
   FEM_CLOTH_CHECK(inRange(e.friction, 0.0, kMaxFriction, key + ".friction", ""));
   o.friction = e.friction;
   o.frame = e.frame;

@@ -33,7 +33,7 @@ std::string alternatives(const std::vector<std::string>& names) {
 }
 
 // Reads the keys of one YAML map, remembering which were used so that unknown keys are errors.
-// Integrators read their own keys through it (registry.h's SettingsReader).
+// Integrators and obstacle shapes read their own keys through it (core/settings_reader.h).
 class MapReader final : public SettingsReader {
  public:
   // A missing key gives yaml-cpp's "zombie" node, on which most calls throw: keep a null
@@ -67,7 +67,7 @@ class MapReader final : public SettingsReader {
 
   /// The key is given, with or without a value: `rows:` and `rows: ~` are given with none,
   /// which the readers of values refuse (a forgotten value must not become the default).
-  bool has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined(); }
+  bool has(const std::string& key) const override { return node_.IsMap() && node_[key].IsDefined(); }
   YAML::Node child(const std::string& key) const { return node_.IsMap() ? node_[key] : YAML::Node(); }
   std::string where(const std::string& key) const override {
     if (path_.empty()) return key.empty() ? "scene" : key;
@@ -128,7 +128,7 @@ class MapReader final : public SettingsReader {
     return Status::success();
   }
   /// A vector of 2 or 3 numbers (missing z is 0).
-  Status vector(const std::string& key, Eigen::Vector3d& out) const {
+  Status vector(const std::string& key, Eigen::Vector3d& out) const override {
     if (!has(key)) return Status::success();
     return toVector(child(key), where(key), out);
   }
@@ -290,17 +290,12 @@ Status readTrajectory(const MapReader& r, std::vector<TrajectoryPoint>& out) {
   return Status::success();
 }
 
-// Obstacles: the keys allowed depend on the type, so a key of another shape is an error naming
-// the keys this one takes.
+// Obstacles: the keys allowed depend on the type (its shape's entry, core/contact/shapes.h), so a
+// key of another shape is an error naming the keys this one takes.
 Status readObstacles(const MapReader& root, Scene& s) {
   YAML::Node list;
   FEM_CLOTH_CHECK(root.list("obstacles", "a list of obstacles", list));
   const std::vector<std::string> common = {"name", "type", "friction", "frame", "velocity", "trajectory"};
-  const std::map<ShapeType, std::vector<std::string>> shapeKeys = {
-      {ShapeType::Plane, {"point", "normal"}},
-      {ShapeType::Sphere, {"center", "radius"}},
-      {ShapeType::Box, {"center", "size", "orientation"}},
-      {ShapeType::Capsule, {"center", "radius", "length", "orientation"}}};
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::string key = "obstacles[" + std::to_string(i) + "]";
     const YAML::Node node = list[i];
@@ -311,32 +306,17 @@ Status readObstacles(const MapReader& root, Scene& s) {
     }
     SceneObstacle o;
     FEM_CLOTH_CHECK(MapReader::toEnum(typeNode.Scalar(), key + ".type", shapeTypeNames(), o.type));
-    const auto shape = shapeKeys.find(o.type);
+    const ShapeEntry& shape = shapeEntry(o.type);
     std::vector<std::string> known = common;
-    known.insert(known.end(), shape->second.begin(), shape->second.end());
+    known.insert(known.end(), shape.keys.begin(), shape.keys.end());
     MapReader r(node, key, known);
     FEM_CLOTH_CHECK(r.check());
     o.name = "obstacle_" + std::to_string(i);
     FEM_CLOTH_CHECK(r.text("name", o.name));
-    FEM_CLOTH_CHECK(r.vector("point", o.point));
-    FEM_CLOTH_CHECK(r.vector("normal", o.normal));
-    FEM_CLOTH_CHECK(r.vector("center", o.center));
-    FEM_CLOTH_CHECK(r.vector("orientation", o.orientation));
+    FEM_CLOTH_CHECK(shape.read(r, o));
     FEM_CLOTH_CHECK(r.number("friction", o.friction));
     FEM_CLOTH_CHECK(r.text("frame", o.frame));
     FEM_CLOTH_CHECK(r.vector("velocity", o.velocity));
-    if (o.type == ShapeType::Box) {
-      if (!r.has("size")) return Error{key + ".size is required for a box: [x, y, z] (m)"};
-      FEM_CLOTH_CHECK(r.vector("size", o.size));
-    }
-    if (o.type == ShapeType::Sphere || o.type == ShapeType::Capsule) {
-      if (!r.has("radius")) return Error{key + ".radius is required for a " + shapeTypeName(o.type) + " (m)"};
-      FEM_CLOTH_CHECK(r.number("radius", o.radius));
-    }
-    if (o.type == ShapeType::Capsule) {
-      if (!r.has("length")) return Error{key + ".length is required for a capsule (m)"};
-      FEM_CLOTH_CHECK(r.number("length", o.length));
-    }
     FEM_CLOTH_CHECK(readTrajectory(r, o.trajectory));
     s.obstacles.push_back(o);
   }

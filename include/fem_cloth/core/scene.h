@@ -161,8 +161,17 @@ Status validateScene(const Scene& scene);
 Status inRange(double value, double lo, double hi, const std::string& key, const std::string& unit);
 /// A whole number in [lo, hi], or an error naming `key`.
 Status countInRange(int value, int lo, int hi, const std::string& key);
+/// A vector of finite numbers, or an error naming `key`.
+Status finiteVector(const Eigen::Vector3d& v, const std::string& key);
+/// A position (m): every coordinate within kMaxCoordinate of the origin.
+Status boundedPosition(const Eigen::Vector3d& p, const std::string& key);
 
-/// The obstacle a scene entry describes; the message names the key (`key` is its path).
+/// The smallest obstacle radius or box size a scene may give (m).
+constexpr double kMinObstacleSize = 1e-6;
+
+/// The obstacle a scene entry describes; the message names the key (`key` is its path). Checked
+/// in this order: name; center, orientation; the shape's keys (its entry, contact/shapes.h);
+/// friction, velocity, trajectory, frame.
 Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& key);
 
 /// The dimension of the scene's mesh (grid meshes keep it in grid.dim).
