@@ -421,19 +421,8 @@ void DihedralBending::elementConstraintStiffness(Index h, double* K) const {
 // Factory
 // ---------------------------------------------------------------------------------------------
 
-const std::vector<std::string>& bendingModelNames() {
-  static const std::vector<std::string> names = {"midedge", "quadratic", "dihedral"};
-  return names;
-}
-
 Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
                                                       const BendingSpec& spec) {
-  const auto& names = bendingModelNames();
-  if (std::find(names.begin(), names.end(), spec.model) == names.end()) {
-    std::string known;
-    for (const std::string& n : names) known += (known.empty() ? "" : ", ") + n;
-    return Error{"unknown bending model '" + spec.model + "' (known: " + known + ")"};
-  }
   if (!std::isfinite(spec.stiffness) || spec.stiffness < 0.0) {
     return Error{"bending stiffness must be finite and >= 0 (N m), got " + numberText(spec.stiffness)};
   }
@@ -454,14 +443,14 @@ Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const Re
                  " entries for " + std::to_string(mesh.numVertices()) + " vertices"};
   }
   if (spec.stiffness == 0.0) return std::unique_ptr<EnergyTerm>();
-  if (spec.model == "midedge") {
+  if (spec.model == BendingModel::Midedge) {
     MidedgeOptions options;
     options.poissonRatio = spec.poissonRatio;
     options.held = spec.held;
     return std::unique_ptr<EnergyTerm>(
         std::make_unique<MidedgeBending>(mesh, rest, spec.stiffness, options));
   }
-  if (spec.model == "quadratic") {
+  if (spec.model == BendingModel::Quadratic) {
     return std::unique_ptr<EnergyTerm>(
         std::make_unique<QuadraticBending>(mesh, rest, spec.stiffness));
   }
@@ -470,8 +459,10 @@ Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const Re
 
 Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
                                                       const std::string& model, double stiffness) {
+  const std::optional<BendingModel> known = bendingModelFromName(model);
+  if (!known) return Error{"unknown bending model '" + model + "' (known: " + commaList(bendingModelNames()) + ")"};
   BendingSpec spec;
-  spec.model = model;
+  spec.model = *known;
   spec.stiffness = stiffness;
   return makeBendingTerm(mesh, rest, spec);
 }

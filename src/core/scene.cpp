@@ -12,6 +12,17 @@
 
 namespace fem_cloth {
 
+const std::vector<std::string>& meshTypeNames() {
+  static const std::vector<std::string> names = {"grid", "obj", "explicit"};
+  return names;
+}
+
+const std::string& meshTypeName(MeshType type) { return enumName(meshTypeNames(), type); }
+
+std::optional<MeshType> meshTypeFromName(const std::string& name) {
+  return enumFromName<MeshType>(meshTypeNames(), name);
+}
+
 namespace {
 
 // Sane ranges (docs/scenes.md): far beyond any cloth and scene this simulates, far inside where
@@ -23,14 +34,23 @@ constexpr double kMinModulus = 1.0;         // Pa: E, mu
 constexpr double kMaxModulus = 1e12;        // Pa: E, mu, lambda (diamond: 1.2e12)
 constexpr double kMinClothSize = 1e-4;      // m: a grid's width and height, a mesh's extent
 constexpr double kMaxClothSize = 1e3;       // m
-constexpr double kMinObstacleSize = 1e-6;   // m: radii and box sizes
+
+}  // namespace
 
 Status finiteVector(const Eigen::Vector3d& v, const std::string& key) {
   if (!v.allFinite()) return Error{key + " must be finite"};
   return Status::success();
 }
 
-}  // namespace
+Status boundedPosition(const Eigen::Vector3d& p, const std::string& key) {
+  FEM_CLOTH_CHECK(finiteVector(p, key));
+  if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) {
+    return Error{key + " must lie within " + numberText(kMaxCoordinate) +
+                 " m of the origin in every coordinate, got [" + numberText(p.x()) + ", " +
+                 numberText(p.y()) + ", " + numberText(p.z()) + "]"};
+  }
+  return Status::success();
+}
 
 // The sane ranges of docs/scenes.md: finite values far outside what any cloth, time step or
 // load can mean (damping.mass: 1e300) are refused like non-finite ones, before they overflow
@@ -73,17 +93,6 @@ Status boundedVector(const Eigen::Vector3d& v, double maxNorm, const std::string
   return Status::success();
 }
 
-/// A position (m): every coordinate within kMaxCoordinate of the origin.
-Status boundedPosition(const Eigen::Vector3d& p, const std::string& key) {
-  FEM_CLOTH_CHECK(finiteVector(p, key));
-  if (p.cwiseAbs().maxCoeff() > kMaxCoordinate) {
-    return Error{key + " must lie within " + numberText(kMaxCoordinate) +
-                 " m of the origin in every coordinate, got [" + numberText(p.x()) + ", " +
-                 numberText(p.y()) + ", " + numberText(p.z()) + "]"};
-  }
-  return Status::success();
-}
-
 Status checkTrajectory(const std::vector<TrajectoryPoint>& trajectory, const std::string& key) {
   for (std::size_t k = 0; k < trajectory.size(); ++k) {
     const std::string at = key + ".trajectory[" + std::to_string(k) + "]";
@@ -117,7 +126,7 @@ Status checkName(const std::string& name) {
 }
 
 Status validateMeshKeys(const Scene& s) {
-  if (s.meshType == "grid") {
+  if (s.meshType == MeshType::Grid) {
     FEM_CLOTH_CHECK(countInRange(s.grid.rows, 2, kMaxVertices, "mesh.rows"));
     FEM_CLOTH_CHECK(countInRange(s.grid.cols, 2, kMaxVertices, "mesh.cols"));
     const long long vertices = static_cast<long long>(s.grid.rows) * s.grid.cols;
@@ -132,15 +141,13 @@ Status validateMeshKeys(const Scene& s) {
     if (s.grid.dim != 2 && s.grid.dim != 3) {
       return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.grid.dim)};
     }
-  } else if (s.meshType == "obj") {
+  } else if (s.meshType == MeshType::Obj) {
     if (s.objFile.empty()) return Error{"mesh.file is required for mesh.type obj"};
-  } else if (s.meshType != "explicit") {
-    return Error{"mesh.type must be grid, obj or explicit, got '" + s.meshType + "'"};
   }
-  if ((s.meshType != "grid") && s.dim != 2 && s.dim != 3) {
+  if ((s.meshType != MeshType::Grid) && s.dim != 2 && s.dim != 3) {
     return Error{"mesh.dim must be 2 or 3, got " + std::to_string(s.dim)};
   }
-  if (s.meshType == "explicit" && s.explicitMesh.restPositions.size() > s.dim * Eigen::Index{kMaxVertices}) {
+  if (s.meshType == MeshType::Explicit && s.explicitMesh.restPositions.size() > s.dim * Eigen::Index{kMaxVertices}) {
     return Error{"mesh.vertices has more than the " + std::to_string(kMaxVertices) + " vertices allowed"};
   }
   if (!(s.minTriangleQuality >= 0.0 && s.minTriangleQuality < 1.0)) {
@@ -157,10 +164,6 @@ Status validateMaterialKeys(const Scene& s) {
   FEM_CLOTH_CHECK(inRange(s.thickness, 1e-6, 0.1, "material.thickness", "m"));
   FEM_CLOTH_CHECK(inRange(s.density, 1.0, 1e5, "material.density", "kg/m^3"));
   FEM_CLOTH_CHECK(inRange(s.bendingStiffness, 0.0, 1e4, "bending.stiffness", "N m"));
-  if (std::find(bendingModelNames().begin(), bendingModelNames().end(), s.bendingModel) ==
-      bendingModelNames().end()) {
-    return Error{"bending.model must be midedge, quadratic or dihedral, got '" + s.bendingModel + "'"};
-  }
   if (!(s.bendingPoissonRatio >= 0.0 && s.bendingPoissonRatio < 0.5)) {
     return Error{"bending.poisson_ratio must be in [0, 0.5), got " + numberText(s.bendingPoissonRatio)};
   }
@@ -184,7 +187,7 @@ Status validateIntegratorKeys(const Scene& s) {
 
 Status validateAirKeys(const Scene& s) {
   if (!s.air) return Status::success();
-  const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
+  const int dim = meshDim(s);
   if (dim != 3) return Error{"air: the air model needs a cloth in 3D (mesh.dim 3), got dim " + std::to_string(dim)};
   FEM_CLOTH_CHECK(inRange(s.air->density, 0.0, 1e4, "air.density", "kg/m^3"));
   FEM_CLOTH_CHECK(inRange(s.air->normalDrag, 0.0, 10.0, "air.normal_drag", ""));
@@ -232,8 +235,7 @@ Status validateContactKeys(const Scene& s) {
   FEM_CLOTH_CHECK(inRange(s.contact.frictionVelocity, 1e-8, 1.0, "contact.friction_velocity", "m/s"));
   FEM_CLOTH_CHECK(inRange(s.contact.selfFriction, 0.0, kMaxFriction, "contact.self_friction", ""));
   if (sceneHasContact(s)) {
-    const int dim = s.meshType == "grid" ? s.grid.dim : s.dim;
-    if (dim != 3) {
+    if (meshDim(s) != 3) {
       return Error{s.obstacles.empty() ? "contact.self_collision needs a 3D cloth (mesh.dim 3)"
                                        : "obstacles need a 3D cloth (mesh.dim 3)"};
     }
@@ -268,12 +270,7 @@ Status validateScene(const Scene& s) {
 Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) {
   Obstacle o;
   o.name = e.name;
-  const auto& names = shapeTypeNames();
-  const auto type = std::find(names.begin(), names.end(), e.type);
-  if (type == names.end()) {
-    return Error{key + ".type must be plane, sphere, box or capsule, got '" + e.type + "'"};
-  }
-  o.shape.type = static_cast<ShapeType>(type - names.begin());
+  o.shape.type = e.type;
   // Names appear in topic names: letters, digits and underscores, not starting with a digit.
   const bool nameOk = !o.name.empty() && !std::isdigit(static_cast<unsigned char>(o.name[0])) &&
                       std::all_of(o.name.begin(), o.name.end(), [](char c) {
@@ -290,39 +287,7 @@ Expected<Obstacle> makeObstacle(const SceneObstacle& e, const std::string& key) 
   }
   o.geometry.linear() = rotationFromRpy(e.orientation);
   o.geometry.translation() = e.center;
-  switch (o.shape.type) {
-    case ShapeType::Plane: {
-      FEM_CLOTH_CHECK(boundedPosition(e.point, key + ".point"));
-      FEM_CLOTH_CHECK(finiteVector(e.normal, key + ".normal"));
-      // Any length, but one whose direction is defined: not zero, not so small or large that
-      // normalising it under- or overflows.
-      if (!(e.normal.norm() > 1e-100 && e.normal.norm() < 1e100)) {
-        return Error{key + ".normal must not be zero, got length " + numberText(e.normal.norm())};
-      }
-      // The shape frame's z axis along the normal.
-      o.geometry.linear() =
-          Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), e.normal.normalized()).toRotationMatrix();
-      o.geometry.translation() = e.point;
-      break;
-    }
-    case ShapeType::Sphere:
-      FEM_CLOTH_CHECK(inRange(e.radius, kMinObstacleSize, kMaxCoordinate, key + ".radius", "m"));
-      o.shape.radius = e.radius;
-      break;
-    case ShapeType::Box:
-      for (int k = 0; k < 3; ++k) {
-        FEM_CLOTH_CHECK(inRange(e.size[k], kMinObstacleSize, kMaxCoordinate,
-                                key + ".size[" + std::to_string(k) + "]", "m"));
-      }
-      o.shape.halfExtents = 0.5 * e.size;
-      break;
-    case ShapeType::Capsule:
-      FEM_CLOTH_CHECK(inRange(e.radius, kMinObstacleSize, kMaxCoordinate, key + ".radius", "m"));
-      FEM_CLOTH_CHECK(inRange(e.length, 0.0, kMaxCoordinate, key + ".length", "m"));
-      o.shape.radius = e.radius;
-      o.shape.halfLength = 0.5 * e.length;
-      break;
-  }
+  FEM_CLOTH_CHECK(shapeEntry(e.type).make(e, key, o));
   FEM_CLOTH_CHECK(inRange(e.friction, 0.0, kMaxFriction, key + ".friction", ""));
   o.friction = e.friction;
   o.frame = e.frame;
@@ -417,7 +382,7 @@ Status checkStepCount(double duration, double dt, int substeps, const std::strin
 }
 
 std::string meshFilePath(const Scene& s) {
-  if (s.meshType != "obj") return "";
+  if (s.meshType != MeshType::Obj) return "";
   std::string path = s.objFile;
   if (!path.empty() && path[0] != '/' && !s.sourcePath.empty()) {
     const auto slash = s.sourcePath.find_last_of('/');
@@ -437,7 +402,7 @@ Expected<std::vector<Index>> resolveSelection(const VertexSelection& sel, const 
     out.push_back(v);
   }
   const bool gridForms = !sel.gridVertices.empty() || !sel.gridEdge.empty();
-  if (gridForms && scene.meshType != "grid") {
+  if (gridForms && scene.meshType != MeshType::Grid) {
     return Error{key + ": grid_vertices and grid_edge need mesh.type grid"};
   }
   const int rows = scene.grid.rows, cols = scene.grid.cols;
@@ -473,8 +438,8 @@ Expected<std::vector<Index>> resolveSelection(const VertexSelection& sel, const 
 namespace {
 
 Expected<Mesh> buildMesh(const Scene& s) {
-  if (s.meshType == "grid") return makeGrid(s.grid);
-  if (s.meshType == "obj") return loadObj(meshFilePath(s), s.dim);
+  if (s.meshType == MeshType::Grid) return makeGrid(s.grid);
+  if (s.meshType == MeshType::Obj) return loadObj(meshFilePath(s), s.dim);
   Mesh mesh = s.explicitMesh;
   mesh.dim = s.dim;
   return mesh;
@@ -610,10 +575,10 @@ namespace {
 // The scene's mesh, built and checked (mesh warnings into `warnings`).
 Expected<std::shared_ptr<const Mesh>> checkedMesh(const Scene& scene, std::vector<std::string>& warnings) {
   Expected<Mesh> built = buildMesh(scene);
-  if (!built) return Error{(scene.meshType == "obj" ? "mesh.file: " : "mesh: ") + built.error()};
+  if (!built) return Error{(scene.meshType == MeshType::Obj ? "mesh.file: " : "mesh: ") + built.error()};
   const MeshValidation check = validateMesh(*built, scene.minTriangleQuality);
   if (!check.ok()) return Error{"mesh: " + check.errorSummary()};
-  if (scene.meshType != "grid") {
+  if (scene.meshType != MeshType::Grid) {
     if (Status st = checkMeshExtent(*built); !st) return Error{"mesh: " + st.error()};
   }
   warnings = check.warnings;
@@ -632,7 +597,7 @@ Status addEnergyTerms(const Scene& scene, const std::shared_ptr<const Mesh>& mes
     spec.model = scene.bendingModel;
     spec.stiffness = scene.bendingStiffness;
     spec.poissonRatio = scene.bendingPoissonRatio;
-    if (spec.model == "midedge") {
+    if (spec.model == BendingModel::Midedge) {
       Expected<std::vector<char>> held = heldVertices(scene, mesh->numVertices());
       if (!held) return Error{held.error()};
       spec.held = std::move(held).value();

@@ -23,8 +23,17 @@ std::string describe(const YAML::Node& node) {
   return "a map";
 }
 
+// The choices of an enum as messages list them: "grid, obj or explicit".
+std::string alternatives(const std::vector<std::string>& names) {
+  std::string out;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    out += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+  }
+  return out;
+}
+
 // Reads the keys of one YAML map, remembering which were used so that unknown keys are errors.
-// Integrators read their own keys through it (registry.h's SettingsReader).
+// Integrators and obstacle shapes read their own keys through it (core/settings_reader.h).
 class MapReader final : public SettingsReader {
  public:
   // A missing key gives yaml-cpp's "zombie" node, on which most calls throw: keep a null
@@ -58,7 +67,7 @@ class MapReader final : public SettingsReader {
 
   /// The key is given, with or without a value: `rows:` and `rows: ~` are given with none,
   /// which the readers of values refuse (a forgotten value must not become the default).
-  bool has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined(); }
+  bool has(const std::string& key) const override { return node_.IsMap() && node_[key].IsDefined(); }
   YAML::Node child(const std::string& key) const { return node_.IsMap() ? node_[key] : YAML::Node(); }
   std::string where(const std::string& key) const override {
     if (path_.empty()) return key.empty() ? "scene" : key;
@@ -98,6 +107,14 @@ class MapReader final : public SettingsReader {
     out = n.Scalar();
     return Status::success();
   }
+  /// A word naming a value of an enum (`names`: its table, core/enum_names.h); absent, `out`
+  /// keeps its value.
+  template <typename E>
+  Status named(const std::string& key, const std::vector<std::string>& names, E& out) const {
+    std::string word = enumName(names, out);
+    FEM_CLOTH_CHECK(text(key, word));
+    return toEnum(word, where(key), names, out);
+  }
   /// A list under `key`; not given, or given without a value (all its entries commented out),
   /// it is empty.
   Status list(const std::string& key, const std::string& what, YAML::Node& out) const {
@@ -111,7 +128,7 @@ class MapReader final : public SettingsReader {
     return Status::success();
   }
   /// A vector of 2 or 3 numbers (missing z is 0).
-  Status vector(const std::string& key, Eigen::Vector3d& out) const {
+  Status vector(const std::string& key, Eigen::Vector3d& out) const override {
     if (!has(key)) return Status::success();
     return toVector(child(key), where(key), out);
   }
@@ -136,6 +153,14 @@ class MapReader final : public SettingsReader {
       return Error{name + " must be a whole number of at most 10^9 in size, got " + describe(n)};
     }
     out = static_cast<int>(v);
+    return Status::success();
+  }
+  template <typename E>
+  static Status toEnum(const std::string& word, const std::string& name, const std::vector<std::string>& names,
+                       E& out) {
+    const std::optional<E> value = enumFromName<E>(names, word);
+    if (!value) return Error{name + " must be " + alternatives(names) + ", got '" + word + "'"};
+    out = *value;
     return Status::success();
   }
   static Status toVector(const YAML::Node& n, const std::string& name, Eigen::Vector3d& out) {
@@ -181,7 +206,7 @@ Status readMesh(const YAML::Node& node, Scene& s) {
               {"type", "rows", "cols", "width", "height", "dim", "plane", "origin", "file",
                "vertices", "triangles", "min_quality"});
   FEM_CLOTH_CHECK(r.check());
-  FEM_CLOTH_CHECK(r.text("type", s.meshType));
+  FEM_CLOTH_CHECK(r.named("type", meshTypeNames(), s.meshType));
   FEM_CLOTH_CHECK(r.integer("rows", s.grid.rows));
   FEM_CLOTH_CHECK(r.integer("cols", s.grid.cols));
   FEM_CLOTH_CHECK(r.number("width", s.grid.width));
@@ -205,7 +230,7 @@ Status readMesh(const YAML::Node& node, Scene& s) {
   FEM_CLOTH_CHECK(r.text("file", s.objFile));
   FEM_CLOTH_CHECK(r.number("min_quality", s.minTriangleQuality));
   if (r.has("vertices") || r.has("triangles")) {
-    if (s.meshType != "explicit") {
+    if (s.meshType != MeshType::Explicit) {
       return Error{"mesh.vertices and mesh.triangles need mesh.type explicit"};
     }
     const YAML::Node vs = r.child("vertices"), ts = r.child("triangles");
@@ -229,7 +254,7 @@ Status readMesh(const YAML::Node& node, Scene& s) {
       for (int k = 0; k < 3; ++k) FEM_CLOTH_CHECK(MapReader::toInteger(ts[t][k], name, tri[k]));
       s.explicitMesh.triangles.push_back(tri);
     }
-  } else if (s.meshType == "explicit") {
+  } else if (s.meshType == MeshType::Explicit) {
     return Error{"mesh.type explicit needs mesh.vertices and mesh.triangles"};
   }
   return Status::success();
@@ -265,56 +290,33 @@ Status readTrajectory(const MapReader& r, std::vector<TrajectoryPoint>& out) {
   return Status::success();
 }
 
-// Obstacles: the keys allowed depend on the type, so a key of another shape is an error naming
-// the keys this one takes.
+// Obstacles: the keys allowed depend on the type (its shape's entry, core/contact/shapes.h), so a
+// key of another shape is an error naming the keys this one takes.
 Status readObstacles(const MapReader& root, Scene& s) {
   YAML::Node list;
   FEM_CLOTH_CHECK(root.list("obstacles", "a list of obstacles", list));
   const std::vector<std::string> common = {"name", "type", "friction", "frame", "velocity", "trajectory"};
-  const std::map<std::string, std::vector<std::string>> shapeKeys = {
-      {"plane", {"point", "normal"}},
-      {"sphere", {"center", "radius"}},
-      {"box", {"center", "size", "orientation"}},
-      {"capsule", {"center", "radius", "length", "orientation"}}};
   for (std::size_t i = 0; i < list.size(); ++i) {
     const std::string key = "obstacles[" + std::to_string(i) + "]";
     const YAML::Node node = list[i];
     if (!node.IsMap()) return Error{key + " must be a map of keys, got " + describe(node)};
     const YAML::Node typeNode = node["type"];
     if (!typeNode.IsDefined() || !typeNode.IsScalar()) {
-      return Error{key + ".type is required: plane, sphere, box or capsule"};
+      return Error{key + ".type is required: " + alternatives(shapeTypeNames())};
     }
     SceneObstacle o;
-    o.type = typeNode.Scalar();
-    const auto shape = shapeKeys.find(o.type);
-    if (shape == shapeKeys.end()) {
-      return Error{key + ".type must be plane, sphere, box or capsule, got '" + o.type + "'"};
-    }
+    FEM_CLOTH_CHECK(MapReader::toEnum(typeNode.Scalar(), key + ".type", shapeTypeNames(), o.type));
+    const ShapeEntry& shape = shapeEntry(o.type);
     std::vector<std::string> known = common;
-    known.insert(known.end(), shape->second.begin(), shape->second.end());
+    known.insert(known.end(), shape.keys.begin(), shape.keys.end());
     MapReader r(node, key, known);
     FEM_CLOTH_CHECK(r.check());
     o.name = "obstacle_" + std::to_string(i);
     FEM_CLOTH_CHECK(r.text("name", o.name));
-    FEM_CLOTH_CHECK(r.vector("point", o.point));
-    FEM_CLOTH_CHECK(r.vector("normal", o.normal));
-    FEM_CLOTH_CHECK(r.vector("center", o.center));
-    FEM_CLOTH_CHECK(r.vector("orientation", o.orientation));
+    FEM_CLOTH_CHECK(shape.read(r, o));
     FEM_CLOTH_CHECK(r.number("friction", o.friction));
     FEM_CLOTH_CHECK(r.text("frame", o.frame));
     FEM_CLOTH_CHECK(r.vector("velocity", o.velocity));
-    if (o.type == "box") {
-      if (!r.has("size")) return Error{key + ".size is required for a box: [x, y, z] (m)"};
-      FEM_CLOTH_CHECK(r.vector("size", o.size));
-    }
-    if (o.type == "sphere" || o.type == "capsule") {
-      if (!r.has("radius")) return Error{key + ".radius is required for a " + o.type + " (m)"};
-      FEM_CLOTH_CHECK(r.number("radius", o.radius));
-    }
-    if (o.type == "capsule") {
-      if (!r.has("length")) return Error{key + ".length is required for a capsule (m)"};
-      FEM_CLOTH_CHECK(r.number("length", o.length));
-    }
     FEM_CLOTH_CHECK(readTrajectory(r, o.trajectory));
     s.obstacles.push_back(o);
   }
@@ -463,7 +465,7 @@ Status readMaterial(const MapReader& root, Scene& s) {
 
   MapReader bend(root.child("bending"), "bending", {"model", "stiffness", "poisson_ratio"});
   FEM_CLOTH_CHECK(bend.check());
-  FEM_CLOTH_CHECK(bend.text("model", s.bendingModel));
+  FEM_CLOTH_CHECK(bend.named("model", bendingModelNames(), s.bendingModel));
   FEM_CLOTH_CHECK(bend.number("stiffness", s.bendingStiffness));
   FEM_CLOTH_CHECK(bend.number("poisson_ratio", s.bendingPoissonRatio));
 

@@ -47,7 +47,8 @@ geometry_msgs::Pose poseMessage(const Eigen::Isometry3d& T) {
 // Side (m) of the square slab that stands for an infinite plane in RViz, and its thickness.
 constexpr double kPlaneMarkerSide = 4.0, kPlaneMarkerThickness = 0.002;
 
-// The marker(s) of one obstacle shape at `pose`: one, or three for a capsule.
+// The marker(s) of one obstacle shape at `pose`: one, or three for a capsule; a shape without a
+// marker primitive of its own is a triangle list of its surface (its entry's triangulation).
 void addShapeMarkers(visualization_msgs::Marker m, const Shape& shape, const Eigen::Isometry3d& pose,
                      visualization_msgs::MarkerArray* array) {
   m.pose = poseMessage(pose);
@@ -83,6 +84,15 @@ void addShapeMarkers(visualization_msgs::Marker m, const Shape& shape, const Eig
         array->markers.push_back(cap);
       }
       break;
+    default: {
+      const ShapeMesh surface = shapeEntry(shape.type).triangulate(shape, kPlaneMarkerSide, 24);
+      m.type = visualization_msgs::Marker::TRIANGLE_LIST;
+      m.scale.x = m.scale.y = m.scale.z = 1.0;
+      for (const auto& triangle : surface.triangles) {
+        for (const int v : triangle) m.points.push_back(tf2::toMsg(surface.positions[static_cast<std::size_t>(v)]));
+      }
+      break;
+    }
   }
   array->markers.push_back(m);
 }

@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
   if (cases.empty()) cases = fem_cloth::validate::caseNames();
   fem_cloth::validate::CaseOptions options;
   options.cells = cells;
-  options.bendingModel = model;
+  options.bendingModel = *fem_cloth::bendingModelFromName(model);  // checked by --model
   options.gammas = gammas;
   options.diagonals = diagonals;
   std::vector<CaseRow> rows;

@@ -32,7 +32,7 @@ Scene sheet(int cols, int rows, double width, double height, const Eigen::Vector
             double E, double nu, double areal, GridPlane plane = GridPlane::XY) {
   Scene s;
   s.name = "validation";
-  s.meshType = "grid";
+  s.meshType = MeshType::Grid;
   s.grid.cols = cols;
   s.grid.rows = rows;
   s.grid.width = width;
@@ -242,7 +242,7 @@ Expected<Scene> withDiagonals(Scene s, const std::string& pattern) {
       mesh.restPositions.segment<3>(old + 3 * static_cast<Eigen::Index>(i)) = centres[i];
     }
   }
-  s.meshType = "explicit";
+  s.meshType = MeshType::Explicit;
   s.dim = 3;
   s.explicitMesh = mesh;
   return s;
@@ -558,7 +558,7 @@ Expected<std::vector<CaseRow>> incline(const CaseOptions& options) {
     s.dt = 0.005;
     SceneObstacle plane;
     plane.name = "slope";
-    plane.type = "plane";
+    plane.type = ShapeType::Plane;
     plane.friction = mu;
     s.obstacles.push_back(plane);
     Expected<Simulation> sim = build(s, options);

@@ -404,7 +404,7 @@ TEST(MidedgeBending, EnergyGrowsWithoutBoundAsAHingeFoldsFlat) {
 TEST(MidedgeBending, SceneKeysDefaultsAndRefusals) {
   Scene s = gridScene(3, 5, 0.4, "backward_euler");
   s.bendingStiffness = 1e-4;
-  EXPECT_EQ(s.bendingModel, "midedge");  // the default
+  EXPECT_EQ(s.bendingModel, BendingModel::Midedge);  // the default
   EXPECT_EQ(s.bendingPoissonRatio, 0.0);
   Simulation sim = mustBuild(s);
   ASSERT_EQ(sim.model->numTerms(), 2u);
@@ -416,10 +416,10 @@ TEST(MidedgeBending, SceneKeysDefaultsAndRefusals) {
   const Status xpbd = validateScene(s);
   ASSERT_FALSE(xpbd.ok());
   EXPECT_NE(xpbd.error().find("bending.model"), std::string::npos) << xpbd.error();
-  s.bendingModel = "dihedral";
+  s.bendingModel = BendingModel::Dihedral;
   EXPECT_TRUE(validateScene(s).ok()) << validateScene(s).error();
   // Projective dynamics needs the quadratic model and says so when the default is in the way.
-  s.bendingModel = "midedge";
+  s.bendingModel = BendingModel::Midedge;
   s.integrator = "projective_dynamics";
   s.materialModel = "arap";
   const Status pd = validateScene(s);

@@ -27,7 +27,7 @@ bool implicitIntegrator(const std::string& name) { return name == "backward_eule
 SceneObstacle floorPlane(double z, double mu) {
   SceneObstacle o;
   o.name = "floor";
-  o.type = "plane";
+  o.type = ShapeType::Plane;
   o.point = Eigen::Vector3d(0, 0, z);
   o.friction = mu;
   return o;
@@ -40,7 +40,7 @@ Scene clothOnTable(const std::string& integrator, int n, double side, double z, 
   s.grid.origin = {0.0, 0.0, z};
   SceneObstacle table;
   table.name = "table";
-  table.type = "box";
+  table.type = ShapeType::Box;
   table.center = Eigen::Vector3d(0.5 * side, 0.5 * side, -0.25);
   table.size = Eigen::Vector3d(2.0, 2.0, 0.5);
   table.friction = mu;
@@ -258,7 +258,7 @@ TEST_P(Contact, MovingObstaclePushesTheClothWithoutPassingThrough) {
   scene.damping.massProportional = 1.0;
   SceneObstacle ball;
   ball.name = "ball";
-  ball.type = "sphere";
+  ball.type = ShapeType::Sphere;
   ball.radius = 0.1;
   const Eigen::Vector3d c0(0.0, -0.15, 0.2), v(0.0, 0.3, 0.0);
   ball.center = c0;

@@ -175,6 +175,22 @@ TEST(ContactShapes, NormalIsTheGradient) {
   }
 }
 
+// Every entry of the shape table: named as its type, and its triangulation (what
+// fem_cloth_render and the RViz fallback marker draw) lies on the surface its distance describes.
+TEST(ContactShapes, TableTriangulationsLieOnTheSurface) {
+  ASSERT_EQ(shapeRegistry().size(), testShapes().size());
+  for (const Shape& shape : testShapes()) {
+    const ShapeEntry& entry = shapeEntry(shape.type);
+    EXPECT_EQ(entry.name, shapeTypeName(shape.type));
+    const ShapeMesh surface = entry.triangulate(shape, 2.0, 16);
+    ASSERT_FALSE(surface.triangles.empty()) << entry.name;
+    ASSERT_EQ(surface.normals.size(), surface.positions.size()) << entry.name;
+    for (const Eigen::Vector3d& p : surface.positions) {
+      EXPECT_NEAR(signedDistance(shape, p).distance, 0.0, 1e-12) << entry.name;
+    }
+  }
+}
+
 TEST(ContactPrimitives, PointTriangleMatchesBruteForce) {
   for (int trial = 0; trial < 200; ++trial) {
     const Eigen::Vector3d p = randomPoint(1.0), a = randomPoint(1.0), b = randomPoint(1.0), c = randomPoint(1.0);

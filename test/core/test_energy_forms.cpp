@@ -41,7 +41,7 @@ std::unique_ptr<EnergyTerm> membrane(const Sheet& s, const std::string& model) {
 
 std::unique_ptr<EnergyTerm> bending(const Sheet& s, const std::string& model) {
   BendingSpec spec;
-  spec.model = model;
+  spec.model = *bendingModelFromName(model);
   spec.stiffness = 1e-3;
   return std::move(makeBendingTerm(*s.mesh, *s.rest, spec)).value();
 }

@@ -70,8 +70,8 @@ TEST(PinchLift, FingersLiftAndCarryTheClothByFriction) {
   const std::size_t tableIndex = obstacleIndex(scene, "table");
   const SceneObstacle& lower = scene.obstacles[lowerIndex];
   const SceneObstacle& upper = scene.obstacles[upperIndex];
-  ASSERT_EQ(lower.type, "box");
-  ASSERT_EQ(upper.type, "box");
+  ASSERT_EQ(lower.type, ShapeType::Box);
+  ASSERT_EQ(upper.type, ShapeType::Box);
   ASSERT_EQ(lower.orientation, Eigen::Vector3d::Zero());  // Box above is axis-aligned
   ASSERT_EQ(upper.orientation, Eigen::Vector3d::Zero());
   ASSERT_TRUE(scene.pins.empty()) << "the cloth must be held by friction alone";

@@ -46,7 +46,7 @@ inline Scene gridScene(int dim, int n, double side, const std::string& integrato
                        double membraneModulus = 100.0) {
   Scene s;
   s.name = "test";
-  s.meshType = "grid";
+  s.meshType = MeshType::Grid;
   s.grid.dim = dim;
   s.dim = dim;
   s.grid.rows = n;

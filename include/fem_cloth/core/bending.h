@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/bending_model.h"
 #include "fem_cloth/core/energy_forms.h"
 #include "fem_cloth/core/energy_term.h"
 #include "fem_cloth/core/expected.h"
@@ -211,13 +212,9 @@ class DihedralBending final : public HingeConstraintTerm {
   std::vector<HingeMatrix, Eigen::aligned_allocator<HingeMatrix>> hessian_;
 };
 
-/// The model names accepted by makeBendingTerm: midedge (the default, bending_midedge.h),
-/// quadratic, dihedral.
-const std::vector<std::string>& bendingModelNames();
-
 /// What a scene asks of its bending term.
 struct BendingSpec {
-  std::string model = "midedge";
+  BendingModel model = BendingModel::Midedge;
   double stiffness = 0.0;     ///< k = D (N m), see bendingStiffness; 0: no term at all
   double poissonRatio = 0.0;  ///< midedge: the bending Poisson ratio nu_b, in [0, 0.5)
   /// midedge: per vertex (or empty), held for the whole run; triangles with three held vertices
@@ -226,12 +223,12 @@ struct BendingSpec {
 };
 
 /// The bending term of a cloth mesh. k = 0 returns nullptr: the term is not assembled at all.
-/// Errors name the culprit: an unknown model (listing the known ones), k negative or not finite,
-/// nu_b outside [0, 0.5), a held list of the wrong size, a planar (dim 2) mesh, or a rest state
-/// that does not belong to the mesh.
+/// Errors name the culprit: k negative or not finite, nu_b outside [0, 0.5), a held list of the
+/// wrong size, a planar (dim 2) mesh, or a rest state that does not belong to the mesh.
 Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
                                                       const BendingSpec& spec);
-/// The same with nu_b = 0 and nothing held.
+/// The same with nu_b = 0 and nothing held, the model by name (bendingModelNames()): an unknown
+/// name is an error listing the known ones.
 Expected<std::unique_ptr<EnergyTerm>> makeBendingTerm(const Mesh& mesh, const RestState& rest,
                                                       const std::string& model, double stiffness);
 

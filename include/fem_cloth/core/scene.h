@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/bending_model.h"
 #include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/implicit.h"
@@ -63,7 +64,7 @@ struct SceneForce {
 /// simulation frame or, with `frame`, in that tf frame.
 struct SceneObstacle {
   std::string name;  ///< default obstacle_<index>; names the obstacle in messages and topics
-  std::string type;  ///< plane, sphere, box or capsule
+  ShapeType type = ShapeType::Plane;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();   ///< plane: a point on it
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< plane: outward normal (any length)
   Eigen::Vector3d center = Eigen::Vector3d::Zero();  ///< sphere, box, capsule
@@ -89,12 +90,22 @@ struct SceneInitialPosition {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
 };
 
+/// How a scene gives its mesh (`mesh.type`): a generated grid, an OBJ file, or vertices and
+/// triangles listed in the scene.
+enum class MeshType { Grid, Obj, Explicit };
+
+/// The names used in scenes, in the order of MeshType: grid, obj, explicit.
+const std::vector<std::string>& meshTypeNames();
+const std::string& meshTypeName(MeshType type);
+/// The mesh type called `name`, if there is one.
+std::optional<MeshType> meshTypeFromName(const std::string& name);
+
 struct Scene {
   std::string name = "scene";
   std::string sourcePath;  ///< where it was read from (relative OBJ paths resolve against it)
 
   // mesh
-  std::string meshType = "grid";  ///< grid, obj or explicit
+  MeshType meshType = MeshType::Grid;
   GridSpec grid;
   std::string objFile;
   int dim = 3;  ///< for obj and explicit meshes (grid meshes use grid.dim)
@@ -111,7 +122,7 @@ struct Scene {
   double density = 2000.0;       ///< kg/m^3; areal density = density x thickness
 
   // bending
-  std::string bendingModel = "midedge";
+  BendingModel bendingModel = BendingModel::Midedge;
   double bendingStiffness = 0.0;     ///< N m; 0: no bending term at all
   double bendingPoissonRatio = 0.0;  ///< midedge: nu_b (docs/bending.md: why 0 for woven cloth)
 
@@ -150,9 +161,21 @@ Status validateScene(const Scene& scene);
 Status inRange(double value, double lo, double hi, const std::string& key, const std::string& unit);
 /// A whole number in [lo, hi], or an error naming `key`.
 Status countInRange(int value, int lo, int hi, const std::string& key);
+/// A vector of finite numbers, or an error naming `key`.
+Status finiteVector(const Eigen::Vector3d& v, const std::string& key);
+/// A position (m): every coordinate within kMaxCoordinate of the origin.
+Status boundedPosition(const Eigen::Vector3d& p, const std::string& key);
 
-/// The obstacle a scene entry describes; the message names the key (`key` is its path).
+/// The smallest obstacle radius or box size a scene may give (m).
+constexpr double kMinObstacleSize = 1e-6;
+
+/// The obstacle a scene entry describes; the message names the key (`key` is its path). Checked
+/// in this order: name; center, orientation; the shape's keys (its entry, contact/shapes.h);
+/// friction, velocity, trajectory, frame.
 Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& key);
+
+/// The dimension of the scene's mesh (grid meshes keep it in grid.dim).
+inline int meshDim(const Scene& scene) { return scene.meshType == MeshType::Grid ? scene.grid.dim : scene.dim; }
 
 /// True when the scene needs contact (obstacles, or self-collision).
 inline bool sceneHasContact(const Scene& scene) {

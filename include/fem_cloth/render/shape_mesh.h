@@ -1,5 +1,6 @@
 // Obstacle shapes (core/contact/shapes.h) as triangle meshes for drawing, in the shape's own
-// frame, with unit vertex normals. ROS-free.
+// frame, with unit vertex normals: each shape's own triangulation (its entry in the shape table,
+// src/core/contact/shapes/<name>.cpp). ROS-free.
 //   plane    a square of side `planeSide` in z = 0, centred at the origin (a plane is infinite:
 //            the caller picks a side that covers what it draws, e.g. twice a camera's range)
 //   box      12 triangles, 4 vertices per face so each face keeps its own flat normal
@@ -15,12 +16,7 @@
 
 namespace fem_cloth {
 
-struct ShapeMesh {
-  std::vector<Eigen::Vector3d> positions;  ///< m, in the shape's frame
-  std::vector<Eigen::Vector3d> normals;    ///< unit, outward
-  std::vector<std::array<int, 3>> triangles;
-};
-
+/// `segments` below 8 is taken as 8.
 ShapeMesh tessellate(const Shape& shape, double planeSide, int segments = 24);
 
 /// A shape where it is now: its world pose (the simulation frame from the shape's frame).

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/bending_model.h"
 #include "fem_cloth/core/expected.h"
 
 namespace fem_cloth::validate {
@@ -51,7 +52,7 @@ struct CaseRow {
 
 struct CaseOptions {
   std::vector<int> cells = {16};
-  std::string bendingModel = "midedge";
+  BendingModel bendingModel = BendingModel::Midedge;
   /// peirce: the gammas to run (empty: 0.5, 1, 2, 4, 8, 12, 20).
   std::vector<double> gammas;
   /// Multiplies the simulated moduli (Young's modulus, bending stiffness) but not the

@@ -418,7 +418,7 @@ IntegratorEntry projectiveDynamicsEntry() {
   // has no place for a barrier whose Hessian changes with the contacts (and a projection after
   // the global step would undo the convergence it is chosen for), nor for stiffness damping.
   e.supports.materials = {"arap"};
-  e.supports.bendingModels = {"quadratic"};
+  e.supports.bendingModels = {BendingModel::Quadratic};
   e.supports.planar = false;
   e.supports.obstacles = false;
   e.supports.stiffnessDamping = false;

@@ -32,7 +32,8 @@ const std::vector<std::string>& integratorNames() {
 
 namespace {
 
-bool listed(const std::vector<std::string>& allowed, const std::string& value) {
+template <typename T>
+bool listed(const std::vector<T>& allowed, const T& value) {
   return allowed.empty() || std::find(allowed.begin(), allowed.end(), value) != allowed.end();
 }
 
@@ -47,23 +48,22 @@ struct Requirement {
   std::string hint;       ///< how to satisfy the integrator instead
 };
 
-int sceneDim(const Scene& s) { return s.meshType == "grid" ? s.grid.dim : s.dim; }
-
 std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabilities& c) {
-  const std::string bendingDefault = s.bendingModel == "midedge" ? " (the default)" : "";
+  const std::string bendingDefault = s.bendingModel == BendingModel::Midedge ? " (the default)" : "";
+  const std::vector<std::string> bendingModels = enumNames(bendingModelNames(), c.bendingModels);
   const auto firstOf = [](const std::vector<std::string>& v) { return v.empty() ? "" : v.front(); };
   return {
       {"material.model", [](const Scene&) { return true; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.materials, x.materialModel); },
        "material '" + s.materialModel + "'", "; supported: " + commaList(c.materials),
        "set material.model: " + firstOf(c.materials)},
-      {"mesh.dim", [](const Scene& x) { return sceneDim(x) == 2; },
+      {"mesh.dim", [](const Scene& x) { return meshDim(x) == 2; },
        [](const IntegratorCapabilities& k, const Scene&) { return k.planar; },
        "planar meshes (mesh.dim 2); it simulates cloth (dim 3) only", "", "set mesh.dim: 3"},
       {"bending.model", [](const Scene& x) { return x.bendingStiffness > 0.0; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.bendingModels, x.bendingModel); },
-       "bending model '" + s.bendingModel + "'" + bendingDefault,
-       "; supported: " + commaList(c.bendingModels), "set bending.model: " + firstOf(c.bendingModels)},
+       "bending model '" + bendingModelName(s.bendingModel) + "'" + bendingDefault,
+       "; supported: " + commaList(bendingModels), "set bending.model: " + firstOf(bendingModels)},
       {"damping.stiffness", [](const Scene& x) { return x.damping.stiffnessProportional > 0.0; },
        [](const IntegratorCapabilities& k, const Scene&) { return k.stiffnessDamping; },
        "stiffness damping", "", "set it to 0 and use damping.mass"},
@@ -116,7 +116,8 @@ Status checkIntegratorSupports(const Scene& s) {
 std::string capabilitiesText(const IntegratorCapabilities& c) {
   std::vector<std::string> parts;
   parts.push_back("materials: " + (c.materials.empty() ? std::string("all") : commaList(c.materials)));
-  parts.push_back("bending: " + (c.bendingModels.empty() ? std::string("all") : commaList(c.bendingModels)));
+  const std::vector<std::string> bendingModels = enumNames(bendingModelNames(), c.bendingModels);
+  parts.push_back("bending: " + (bendingModels.empty() ? std::string("all") : commaList(bendingModels)));
   parts.push_back(c.planar ? "2D and 3D" : "3D only");
   parts.push_back(std::string(c.obstacles ? "obstacles" : "no obstacles") +
                   (c.selfContact ? ", self-contact" : ""));

@@ -341,7 +341,7 @@ IntegratorEntry xpbdEntry() {
   e.summary = "extended position-based dynamics on the FEM energy (Gauss-Seidel over elements)";
   // XPBD visits elements as constraints of at most 3 values on 4 vertices; a mid-edge bending
   // element reads 12 vertices and has no constraint form.
-  e.supports.bendingModels = {"quadratic", "dihedral"};
+  e.supports.bendingModels = {BendingModel::Quadratic, BendingModel::Dihedral};
   // The materials with a constraint form (optional for a material; empty when all have one).
   e.supports.materials = materialsWithConstraintForm();
   if (e.supports.materials.size() == materialNames().size()) e.supports.materials.clear();

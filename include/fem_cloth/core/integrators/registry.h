@@ -19,8 +19,10 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/bending_model.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/integrator.h"
+#include "fem_cloth/core/settings_reader.h"
 
 namespace fem_cloth {
 
@@ -32,26 +34,12 @@ struct IntegratorCapabilities {
   /// material.model values it simulates; empty: every material.
   std::vector<std::string> materials;
   /// bending.model values it simulates (when bending.stiffness > 0); empty: every model.
-  std::vector<std::string> bendingModels;
+  std::vector<BendingModel> bendingModels;
   bool planar = true;            ///< 2D meshes (mesh.dim 2)
   bool obstacles = true;         ///< contact with obstacles
   bool selfContact = false;      ///< contact.self_collision
   bool stiffnessDamping = true;  ///< damping.stiffness > 0
   bool needsHessian = false;     ///< assembles the model's Hessian (implicit Newton solves)
-};
-
-/// The keys of one map of a scene (here `integrator`) as the IO layer reads them: the core
-/// reads no YAML itself. Each reader leaves `out` untouched when the key is absent and returns
-/// an error naming the key when its value has the wrong type.
-class SettingsReader {
- public:
-  virtual ~SettingsReader() = default;
-  virtual Status number(const std::string& key, double& out) const = 0;
-  virtual Status integer(const std::string& key, int& out) const = 0;
-  virtual Status boolean(const std::string& key, bool& out) const = 0;
-  virtual Status text(const std::string& key, std::string& out) const = 0;
-  /// The full path of a key, for messages ("integrator.linear_solver").
-  virtual std::string where(const std::string& key) const = 0;
 };
 
 /// The values of an integrator's own keys, kept in the scene (`Scene::integratorOptions`) under
