@@ -169,6 +169,18 @@ VectorX deformed(const Mesh& mesh, unsigned seed) {
   return x;
 }
 
+// A backward Euler substep of 10 ms from x0 (c^2 = h^2, gamma = 1/h, xc = x0).
+SubstepFrame backwardEulerFrame(const VectorX& x0, const std::vector<char>& pinned) {
+  SubstepFrame frame;
+  frame.x0 = &x0;
+  frame.xc = &x0;
+  frame.h = 0.01;
+  frame.c2 = 1e-4;
+  frame.gamma = 100.0;
+  frame.pinned = &pinned;
+  return frame;
+}
+
 Cloth sheet(int dim) {
   GridSpec spec;
   spec.rows = 5;
@@ -250,14 +262,7 @@ TEST(VertexAccess, Air) {
   term.bind(air);
   EXPECT_TRUE(term.capabilities().perVertex);
   const std::vector<char> pinned(static_cast<std::size_t>(x.size()), 0);
-  SubstepFrame frame;
-  frame.x0 = &x0;
-  frame.xc = &x0;
-  frame.h = 0.01;
-  frame.c2 = 1e-4;
-  frame.gamma = 100.0;
-  frame.pinned = &pinned;
-  term.beginSubstep(frame);
+  term.beginSubstep(backwardEulerFrame(x0, pinned));
   std::vector<std::vector<Index>> triangles;
   for (const Triangle& t : c.mesh->triangles) triangles.push_back({t[0], t[1], t[2]});
   auto pattern = std::make_shared<SparseHessian>(c.mesh->numVertices(), 3, triangles);
@@ -363,12 +368,7 @@ struct ContactFixture {
     pinned.assign(static_cast<std::size_t>(x.size()), 0);
     contact->beginStep(0.0, 0.01);
     term.bind(*contact);
-    frame.x0 = &x0;
-    frame.xc = &x0;
-    frame.h = 0.01;
-    frame.c2 = 1e-4;
-    frame.gamma = 100.0;
-    frame.pinned = &pinned;
+    frame = backwardEulerFrame(x0, pinned);
     term.beginSubstep(frame);
     term.prepareStep(x, VectorX::Zero(x.size()));
     std::unique_ptr<EnergyTerm> membrane =
