@@ -320,7 +320,8 @@ struct ContactFixture {
   Cloth cloth;
   std::unique_ptr<Model> model;
   std::unique_ptr<ContactModel> contact;
-  ContactTerm term;
+  BarrierTerm barriers;
+  FrictionTerm friction;
   VectorX x0, x;
   std::vector<char> pinned;
   SubstepFrame frame;
@@ -367,16 +368,19 @@ struct ContactFixture {
     for (Index i = 0; i < x.size(); ++i) x[i] += 5e-5 * u(rng);
     pinned.assign(static_cast<std::size_t>(x.size()), 0);
     contact->beginStep(0.0, 0.01);
-    term.bind(*contact);
+    barriers.bind(*contact);
+    friction.bind(*contact);
     frame = backwardEulerFrame(x0, pinned);
-    term.beginSubstep(frame);
-    term.prepareStep(x, VectorX::Zero(x.size()));
+    barriers.beginSubstep(frame);  // the contact's substep (the potential adds it first)
+    friction.beginSubstep(frame);
+    barriers.prepareStep(x, VectorX::Zero(x.size()));
     std::unique_ptr<EnergyTerm> membrane =
         makeMembraneTerm(cloth.mesh, cloth.rest, *makeMaterial("stvk", Lame{1.0, 1.0}));
     pattern = std::make_shared<SparseHessian>(patternFor(*cloth.mesh, *membrane));
   }
 
-  Probe probe() {
+  template <class Term>
+  Probe probe(Term& term) {
     Probe p = probeOf<TermRequest>(term, pattern, 3);
     p.exactBlocks = false;
     p.step = 2e-8;  // m: the barriers vary on the scale of the distances (0.5 mm)
@@ -388,7 +392,7 @@ struct ContactFixture {
     double f = 0.0;
     VertexDerivatives d;
     for (Index v = first; v < last; ++v) {
-      EXPECT_TRUE(term.vertexDerivatives(x, v, HessianMode::Exact, d));
+      EXPECT_TRUE(barriers.vertexDerivatives(x, v, HessianMode::Exact, d));
       f = std::max(f, d.force.norm());
     }
     return f;
@@ -398,8 +402,17 @@ struct ContactFixture {
 TEST(VertexAccess, ContactBarriersAndFriction) {
   for (const auto& [obstacles, self] : {std::pair{true, false}, {false, true}, {true, true}}) {
     ContactFixture f(obstacles, self);
-    EXPECT_TRUE(f.term.capabilities().perVertex);
-    check(f.probe(), f.x);
+    EXPECT_TRUE(f.barriers.capabilities().perVertex);
+    EXPECT_TRUE(f.friction.capabilities().perVertex);
+    check(f.probe(f.barriers), f.x);
+    check(f.probe(f.friction), f.x);
+    // The friction continues the barriers' sum (continuesSum): the two give the bits of the
+    // contact's energy summed as one.
+    TermRequest r;
+    r.energyStart = f.barriers.evaluate(f.x, TermRequest{}).energy;
+    EXPECT_EQ(f.friction.evaluate(f.x, r).energy,
+              f.contact->evaluate(f.x, nullptr, nullptr, nullptr, 1.0));
+    EXPECT_GT(f.friction.evaluate(f.x, TermRequest{}).energy, 0.0) << "friction takes part";
     // Every part it has takes part: without self-contact only the obstacles push (the lower
     // sheet on the table, the ball's vertices of the upper sheet); with it both sheets.
     const Index n = f.cloth.mesh->numVertices() / 2;

@@ -408,8 +408,9 @@ void ContactModel::addBlock(Index a, Index b, const Eigen::Matrix3d& block, Spar
 }
 
 double ContactModel::evaluate(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
-                              std::vector<Eigen::Triplet<double>>* outside, double scale) {
-  return evaluateAll(x, gradient, hessian, outside, scale, nullptr, nullptr);
+                              std::vector<Eigen::Triplet<double>>* outside, double scale, Part part,
+                              double energyStart) {
+  return evaluateAll(x, gradient, hessian, outside, scale, nullptr, nullptr, part, energyStart);
 }
 
 void ContactModel::Assembly::note(double distance, double dHat) {
@@ -435,7 +436,8 @@ void ContactModel::scatter(const std::array<Index, 4>& v, const Vector12& g, con
 
 double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
                                  std::vector<Eigen::Triplet<double>>* outside, double scale,
-                                 std::vector<ObstacleWrench>* wrench, ContactStats* stats) {
+                                 std::vector<ObstacleWrench>* wrench, ContactStats* stats,
+                                 Part part, double energyStart) {
   Assembly a;
   a.gradient = gradient;
   a.hessian = hessian;
@@ -443,12 +445,15 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
   a.scale = scale;
   a.wrench = wrench;
   a.stats = stats;
+  a.energy = energyStart;
   // One running sum over barriers, then friction, in this order.
-  if (!addObstacleBarriers(x, a)) return kInf;
-  if (settings_.selfCollision && !(addPointTriangleBarriers(x, a) && addEdgeEdgeBarriers(x, a))) {
-    return kInf;
+  if (part != Part::Friction) {
+    if (!addObstacleBarriers(x, a)) return kInf;
+    if (settings_.selfCollision && !(addPointTriangleBarriers(x, a) && addEdgeEdgeBarriers(x, a))) {
+      return kInf;
+    }
   }
-  addFriction(x, a);
+  if (part != Part::Barriers) addFriction(x, a);
   return a.energy;
 }
 
@@ -640,8 +645,15 @@ ContactModel::FrictionShare ContactModel::frictionShare(const Friction& f, const
   return out;
 }
 
-bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivatives& out) const {
+bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivatives& out,
+                                     Part part) const {
   out = VertexDerivatives{};
+  if (part != Part::Friction && !addVertexBarriers(x, v, out)) return false;
+  if (part != Part::Barriers) addVertexFriction(x, v, out);
+  return true;
+}
+
+bool ContactModel::addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const {
   const double dHat = settings_.distance;
   for (std::size_t k = 0; k < obstacles_.size() && isFree(v); ++k) {
     const SignedDistance sd = distanceAt(k, vertex(x, v), true);
@@ -669,7 +681,11 @@ bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivative
       out.hessian += b.hessian.block<3, 3>(3 * use.slot, 3 * use.slot);
     }
   }
-  if (frictionOfVertex_.numVertices() <= v) return true;  // before the first substep
+  return true;
+}
+
+void ContactModel::addVertexFriction(const VectorX& x, Index v, VertexDerivatives& out) const {
+  if (frictionOfVertex_.numVertices() <= v) return;  // before the first substep
   for (const VertexIncidence::Use& use : frictionOfVertex_.uses(v)) {
     const Friction& f = friction_[static_cast<std::size_t>(use.element)];
     const FrictionShare share = frictionShare(f, x, true);
@@ -677,7 +693,6 @@ bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivative
     out.force -= w * share.gradient;
     out.hessian += (w * w) * share.hessian;
   }
-  return true;
 }
 
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {

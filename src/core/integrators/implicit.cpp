@@ -99,8 +99,10 @@ void ImplicitIntegrator::buildPotential(const StepInput& input, const State& sta
   // Contact (Li et al. 2020): Phi gains c^2 (kappa B + D), whose Hessian may couple vertices
   // outside the model's pattern (self-contact), and every line search is bounded by CCD.
   if (contact_ != nullptr) {
-    contactTerm_.bind(*contact_);
-    potential_.addTerm(contactTerm_);
+    barrierTerm_.bind(*contact_);
+    frictionTerm_.bind(*contact_);
+    potential_.addTerm(barrierTerm_);  // starts the contact's substep: first
+    potential_.addTerm(frictionTerm_);
   }
   loads_.setForces(*input.gravityForce, *input.externalForce);
   potential_.addTerm(loads_);

@@ -49,15 +49,27 @@ TermsEvaluation IncrementalPotential::evaluateTerms(const VectorX& x, VectorX* t
   TermRequest request;
   request.gradient = termGradient;
   TermsEvaluation result;
+  // A term that continues the previous one's sum replaces it: each run of such terms is added
+  // once, as the single term it was split from.
+  double pending = 0.0;
+  const PotentialTerm* pendingTerm = nullptr;
+  auto flush = [&] {
+    if (pendingTerm != nullptr) (pendingTerm->role() == TermRole::Load ? result.load : result.stored) += pending;
+  };
   for (PotentialTerm* term : conservative_) {
+    const bool continues = term->continuesSum() && pendingTerm != nullptr;
+    request.energyStart = continues ? pending : 0.0;
     const EvalResult r = term->evaluate(x, request);
-    (term->role() == TermRole::Load ? result.load : result.stored) += r.energy;
+    if (!continues) flush();
+    pending = r.energy;
+    pendingTerm = term;
     if (!r.inDomain || !std::isfinite(r.energy)) {
       result.inDomain = false;
       result.firstBadElement = r.firstBadElement;
       break;
     }
   }
+  flush();
   return result;
 }
 

@@ -190,21 +190,24 @@ const VectorX& AirTerm::force(const VectorX& v) {
   return force_;
 }
 
-// --- Contact -----------------------------------------------------------------------------------
+// --- Contact ---------------------------------------------------------------------------------
 
-void ContactTerm::beginSubstep(const SubstepFrame& frame) {
-  contact_->beginSubstep(*frame.x0, *frame.xc, frame.gamma, frame.h, *frame.pinned,
-                         frame.fractionStart, frame.fractionEnd);
-}
+namespace {
 
-EvalResult ContactTerm::evaluate(const VectorX& x, const TermRequest& request) {
-  // ContactModel scales its gradient and Hessian alike: a scaled Hessian is asked for alone.
+// One part of the contact as a term: ContactModel scales its gradient and Hessian alike, so a
+// scaled Hessian is asked for alone.
+EvalResult evaluateContact(ContactModel& contact, const VectorX& x, const TermRequest& request,
+                           ContactModel::Part part) {
   double e = 0.0;
   if (request.hessian == nullptr || request.hessianScale == 1.0) {
-    e = contact_->evaluate(x, request.gradient, request.hessian, request.outside, 1.0);
+    e = contact.evaluate(x, request.gradient, request.hessian, request.outside, 1.0, part,
+                         request.energyStart);
   } else {
-    e = contact_->evaluate(x, nullptr, request.hessian, request.outside, request.hessianScale);
-    if (request.gradient != nullptr) e = contact_->evaluate(x, request.gradient, nullptr, nullptr, 1.0);
+    e = contact.evaluate(x, nullptr, request.hessian, request.outside, request.hessianScale, part,
+                         request.energyStart);
+    if (request.gradient != nullptr) {
+      e = contact.evaluate(x, request.gradient, nullptr, nullptr, 1.0, part, request.energyStart);
+    }
   }
   // A zero contact distance, like an element outside its domain, makes the energy +inf.
   EvalResult r;
@@ -213,13 +216,33 @@ EvalResult ContactTerm::evaluate(const VectorX& x, const TermRequest& request) {
   return r;
 }
 
-double ContactTerm::prepareStep(const VectorX& x, const VectorX& dx) {
+}  // namespace
+
+void BarrierTerm::beginSubstep(const SubstepFrame& frame) {
+  contact_->beginSubstep(*frame.x0, *frame.xc, frame.gamma, frame.h, *frame.pinned,
+                         frame.fractionStart, frame.fractionEnd);
+}
+
+EvalResult BarrierTerm::evaluate(const VectorX& x, const TermRequest& request) {
+  return evaluateContact(*contact_, x, request, ContactModel::Part::Barriers);
+}
+
+double BarrierTerm::prepareStep(const VectorX& x, const VectorX& dx) {
   return contact_->prepareSegment(x, dx);
 }
 
-bool ContactTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
+bool BarrierTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
                                     VertexDerivatives& out) const {
-  return contact_->vertexDerivatives(x, vertex, out);
+  return contact_->vertexDerivatives(x, vertex, out, ContactModel::Part::Barriers);
+}
+
+EvalResult FrictionTerm::evaluate(const VectorX& x, const TermRequest& request) {
+  return evaluateContact(*contact_, x, request, ContactModel::Part::Friction);
+}
+
+bool FrictionTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
+                                     VertexDerivatives& out) const {
+  return contact_->vertexDerivatives(x, vertex, out, ContactModel::Part::Friction);
 }
 
 }  // namespace fem_cloth

@@ -116,18 +116,25 @@ class ContactModel {
   /// evaluations that follow, and the largest t that additive CCD finds collision-free
   /// (obstacles at the end of the substep; only self-contact if `withObstacles` is false).
   double prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles = true);
-  /// kappa B(x) + D(x) (J), +inf if a distance is zero or negative. Adds scale x the gradient to
-  /// `gradient`, and scale x the PSD-projected Hessian: into `hessian` where its pattern has the
-  /// entries, else to `outside` as triplets. Uses the pairs of the last prepareSegment().
+  /// The parts of the contact's energy: the barriers kappa B, the lagged friction D, or both.
+  enum class Part { Barriers, Friction, Both };
+  /// kappa B(x) + D(x) (J), or one part of it, +inf if a distance is zero or negative. Adds
+  /// scale x the gradient to `gradient`, and scale x the PSD-projected Hessian: into `hessian`
+  /// where its pattern has the entries, else to `outside` as triplets. Uses the pairs of the last
+  /// prepareSegment(). The energy is summed onto energyStart, element by element (so that the
+  /// friction continued from the barriers' sum gives the bits of Part::Both).
   double evaluate(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
-                  std::vector<Eigen::Triplet<double>>* outside, double scale);
-  /// Per-vertex access (local solvers; ContactTerm::vertexDerivatives): the force on `vertex`,
+                  std::vector<Eigen::Triplet<double>>* outside, double scale,
+                  Part part = Part::Both, double energyStart = 0.0);
+  /// Per-vertex access (local solvers; BarrierTerm's and FrictionTerm's vertexDerivatives, each
+  /// its part): the force on `vertex`,
   /// -d(kappa B + D)/dx_v (N), and its 3 x 3 block of the Hessian evaluate() assembles (PSD:
   /// the barriers' Gauss-Newton part, the lagged friction's exact Hessian), from the vertex's
   /// obstacle barriers, the self-contact pairs of the last prepareSegment() and the substep's
   /// friction entries that hold it. False when one of those distances is zero or negative.
   /// Thread-safe; its distance evaluations are not counted in checks().
-  bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out) const;
+  bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out,
+                         Part part = Part::Both) const;
   /// After a converged substep at x (from x0): contacts, work, and the obstacles' wrenches.
   void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
 
@@ -189,6 +196,9 @@ class ContactModel {
   bool edgeEdgeBarrier(const VectorX& x, int ia, int ib, bool wantGradient, bool wantHessian,
                        PairBarrier& out, double& distance) const;
   FrictionShare frictionShare(const Friction& f, const VectorX& x, bool wantHessian) const;
+  /// The parts of vertexDerivatives (added to out); false when a distance is not positive.
+  bool addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const;
+  void addVertexFriction(const VectorX& x, Index v, VertexDerivatives& out) const;
   void setSubstepPoses(double f0, double f1);
   void applyProjectionFriction(VectorX& x, const VectorX& xStart);
   bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
@@ -199,7 +209,8 @@ class ContactModel {
                 std::vector<Eigen::Triplet<double>>* outside) const;
   double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
                      std::vector<Eigen::Triplet<double>>* outside, double scale,
-                     std::vector<ObstacleWrench>* wrench, ContactStats* stats);
+                     std::vector<ObstacleWrench>* wrench, ContactStats* stats,
+                     Part part = Part::Both, double energyStart = 0.0);
   /// Where one evaluateAll() writes, and the energy it has summed so far.
   struct Assembly {
     VectorX* gradient = nullptr;

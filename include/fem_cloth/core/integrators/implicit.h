@@ -80,7 +80,8 @@ class ImplicitIntegrator final : public Integrator {
   MassDampingTerm massDamping_;
   StiffnessDampingTerm stiffnessDamping_;
   AirTerm airTerm_;
-  ContactTerm contactTerm_;
+  BarrierTerm barrierTerm_;
+  FrictionTerm frictionTerm_;
   double sizeScale_ = 0.0;  // rest bounding-box diagonal (m)
   NewtonIterate iterate_;
   // The substep's scene.

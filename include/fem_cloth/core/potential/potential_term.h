@@ -62,6 +62,8 @@ struct TermRequest {
   std::vector<Eigen::Triplet<double>>* outside = nullptr;
   double hessianScale = 1.0;
   HessianMode hessianMode = HessianMode::Projected;
+  /// For a term that continuesSum(): the running energy sum it continues (J).
+  double energyStart = 0.0;
 };
 
 class PotentialTerm {
@@ -80,6 +82,11 @@ class PotentialTerm {
   virtual double prepareStep(const VectorX& /*x*/, const VectorX& /*dx*/) {
     return std::numeric_limits<double>::infinity();
   }
+  /// True for a term whose energy continues the previous term's running sum: the potential
+  /// passes that sum as request.energyStart, and the term returns the sum with its own energy
+  /// added element by element. Two terms split from one (the contact's barriers and friction)
+  /// then sum exactly as the one did.
+  virtual bool continuesSum() const { return false; }
   /// k with the term's x-Hessian k M (M the lumped mass): the potential adds it to the inertia's
   /// diagonal, and evaluate() adds no Hessian of its own. 0 for other terms.
   virtual double massProportionalHessian() const { return 0.0; }

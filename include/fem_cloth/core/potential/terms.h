@@ -126,19 +126,41 @@ class AirTerm final : public PotentialTerm {
   VectorX velocity_, force_;
 };
 
-/// Incremental Potential Contact (Li et al. 2020; contact/contact_model.h): kappa B(x) + D(x),
-/// the barriers and the lagged friction, each step bounded by continuous collision detection.
-class ContactTerm final : public PotentialTerm {
+/// Incremental Potential Contact (Li et al. 2020; contact/contact_model.h), the barriers:
+/// kappa B(x) over the vertex-obstacle pairs and, with self-collision, the point-triangle and
+/// edge-edge pairs closer than dHat; each step bounded by continuous collision detection. It
+/// starts the contact's substep (obstacle poses, the lagged friction's contacts), so it is added
+/// before FrictionTerm.
+class BarrierTerm final : public PotentialTerm {
  public:
   void bind(ContactModel& contact) { contact_ = &contact; }
-  std::string name() const override { return "contact"; }
+  std::string name() const override { return "contact barriers"; }
   TermRole role() const override { return TermRole::Conservative; }
   TermCapabilities capabilities() const override { return {true, true, true, true}; }
   void beginSubstep(const SubstepFrame& frame) override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
   double prepareStep(const VectorX& x, const VectorX& dx) override;
-  /// ContactModel::vertexDerivatives: the block of the assembled (PSD) Hessian in both modes,
-  /// from the pairs of the last prepareStep().
+  /// ContactModel::vertexDerivatives' barriers: the block of the assembled (PSD, Gauss-Newton)
+  /// Hessian in both modes, from the pairs of the last prepareStep().
+  bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
+                         VertexDerivatives& out) const override;
+
+ private:
+  ContactModel* contact_ = nullptr;
+};
+
+/// The lagged friction of the contacts (Li et al. 2020, section 5): D(x) over the contacts of
+/// the start of the substep, with their normal forces and tangent planes fixed. Its energy is
+/// summed onto the barriers' (continuesSum), as the contact's was when the two were one term.
+class FrictionTerm final : public PotentialTerm {
+ public:
+  void bind(ContactModel& contact) { contact_ = &contact; }
+  std::string name() const override { return "contact friction"; }
+  TermRole role() const override { return TermRole::Conservative; }
+  TermCapabilities capabilities() const override { return {true, false, true, true}; }
+  bool continuesSum() const override { return true; }
+  EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
+  /// ContactModel::vertexDerivatives' friction (its exact Hessian block, PSD).
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                          VertexDerivatives& out) const override;
 
