@@ -238,9 +238,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
   if (contact_ != nullptr) {
     ContactStats stats;
     contact_->finishSubstep(iterate_.x, state.x, stats);
-    report.contacts = stats.contacts;
-    report.minContactDistance = stats.minDistance;
-    report.contactWork += stats.work;
+    recordContact(stats, report);
   }
   commit(state, h, pinForce, report);
   return true;

@@ -137,9 +137,7 @@ void SymplecticEuler::projectContact(const StepInput& input, State& state, int s
   ContactStats stats;
   contact.finishProjection(state.x, positionStart_, h, 1.0 + h * input.damping.massProportional, stats);
   state.v += contact.projectionCorrection() / h;
-  report.contacts = stats.contacts;
-  report.minContactDistance = stats.minDistance;
-  report.contactWork += stats.work;
+  recordContact(stats, report);
   report.contactChecks = contact.checks() - checksBefore;
 }
 

@@ -329,9 +329,7 @@ void Xpbd::finishContactSubstep(ContactModel& contact, VectorX& x, double h, dou
   // Chentanez & Kim, "Unified Particle Physics for Real-Time Applications", 2014, section 6.1).
   ContactStats stats;
   contact.finishProjection(x, xStart_, h, dampedMass, stats);
-  report.contacts = stats.contacts;
-  report.minContactDistance = stats.minDistance;
-  report.contactWork += stats.work;
+  recordContact(stats, report);
   report.contactChecks += contact.checks() - contactChecksBefore_;
 }
 

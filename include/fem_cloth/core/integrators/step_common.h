@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
@@ -31,6 +32,14 @@ inline void addMassDampingDissipation(double h, double alpha, const VectorX& v, 
 /// True when positions and velocities are finite; otherwise the report fails, saying which
 /// integrator lost the state (the caller returns it and the simulator restores the state). The
 /// name is a C string, made into a std::string only on failure: steps allocate nothing.
+/// A substep's contact statistics into the step's report: the contacts and the smallest distance
+/// at its end, its contact work added.
+inline void recordContact(const ContactStats& stats, StepReport& report) {
+  report.contacts = stats.contacts;
+  report.minContactDistance = stats.minDistance;
+  report.contactWork += stats.work;
+}
+
 inline bool stateIsFinite(const State& state, const char* integrator, StepReport& report) {
   if (state.x.allFinite() && state.v.allFinite()) return true;
   report.ok = false;
