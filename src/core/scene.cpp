@@ -488,18 +488,18 @@ Status checkMeshExtent(const Mesh& mesh) {
 
 // Every free vertex starts outside the obstacles, no closer than dHat/2 (those that follow a tf
 // frame are placed only when the node runs).
-Status checkObstacleGaps(const Scene& scene, const ContactModel& contact, const VectorX& x,
+Status checkObstacleGaps(const Scene& scene, const ObstacleSet& obstacles, const VectorX& x,
                          const std::vector<Index>& pinned) {
   const Index n = static_cast<Index>(x.size() / 3);
   std::vector<char> isPinned(static_cast<std::size_t>(n), 0);
   for (Index vert : pinned) isPinned[static_cast<std::size_t>(vert)] = 1;
   for (std::size_t k = 0; k < scene.obstacles.size(); ++k) {
-    if (!contact.obstacle(k).frame.empty()) continue;
-    const std::string name = "obstacles[" + std::to_string(k) + "] ('" + contact.obstacle(k).name + "')";
+    if (!obstacles[k].frame.empty()) continue;
+    const std::string name = "obstacles[" + std::to_string(k) + "] ('" + obstacles[k].name + "')";
     for (Index vert = 0; vert < n; ++vert) {
       if (isPinned[static_cast<std::size_t>(vert)]) continue;
-      const double dist = signedDistance(contact.obstacle(k).shape,
-                                         contact.shapePose(k).inverse() * Eigen::Vector3d(x.segment<3>(3 * vert)))
+      const double dist = signedDistance(obstacles[k].shape,
+                                         obstacles.shapePose(k).inverse() * Eigen::Vector3d(x.segment<3>(3 * vert)))
                               .distance;
       if (!(dist > 0.0)) {
         return Error{name + ": vertex " + std::to_string(vert) + " starts inside it or on its surface (distance " +
@@ -555,18 +555,31 @@ Status checkSelfContactAtStart(const Scene& scene, ContactModel& contact, const 
   return Status::success();
 }
 
-Expected<std::unique_ptr<ContactModel>> makeContact(const Scene& scene, const Model& model,
-                                                    const VectorX& x, const std::vector<Index>& pinned) {
+// The scene's obstacles, and the one contact method its integrator uses on them.
+Status addContact(const Scene& scene, const Model& model, const VectorX& x,
+                  const std::vector<Index>& pinned, Simulator& simulator) {
   FEM_CLOTH_CHECK(checkContactDistance(model.mesh(), scene.contact.distance));
-  std::vector<Obstacle> obstacles;
+  std::vector<Obstacle> list;
   for (std::size_t i = 0; i < scene.obstacles.size(); ++i) {
-    obstacles.push_back(*makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]"));
+    list.push_back(*makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]"));
   }
-  auto contact = std::make_unique<ContactModel>(model, std::move(obstacles), scene.contact,
-                                                scene.gravity.norm());
-  FEM_CLOTH_CHECK(checkObstacleGaps(scene, *contact, x, pinned));
-  if (scene.contact.selfCollision) FEM_CLOTH_CHECK(checkSelfContactAtStart(scene, *contact, model.mesh(), x));
-  return contact;
+  auto obstacles = std::make_shared<ObstacleSet>(std::move(list));
+  FEM_CLOTH_CHECK(checkObstacleGaps(scene, *obstacles, x, pinned));
+  switch ((*findIntegrator(scene.integrator))->supports.contact) {
+    case ContactMethod::Barriers: {
+      auto barriers = std::make_unique<ContactModel>(model, obstacles, scene.contact, scene.gravity.norm());
+      if (scene.contact.selfCollision) FEM_CLOTH_CHECK(checkSelfContactAtStart(scene, *barriers, model.mesh(), x));
+      simulator.setContact(obstacles, std::move(barriers));
+      break;
+    }
+    case ContactMethod::Projection:
+      simulator.setContact(obstacles, nullptr,
+                           std::make_unique<ProjectionContact>(model, obstacles, scene.contact.distance));
+      break;
+    case ContactMethod::None:  // validateScene refused the scene's contact (checkIntegratorSupports)
+      return Error{"integrator.name: " + scene.integrator + " handles no contact"};
+  }
+  return Status::success();
 }
 }  // namespace
 
@@ -753,12 +766,7 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   FEM_CLOTH_CHECK(applyScenePins(scene, simulator, sim.script, x, v));
   FEM_CLOTH_CHECK(applySceneForces(scene, simulator, sim.script));
   if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
-  if (sceneHasContact(scene)) {
-    Expected<std::unique_ptr<ContactModel>> contact =
-        makeContact(scene, *sim.model, x, simulator.pinnedVertices());
-    if (!contact) return Error{contact.error()};
-    simulator.setContact(std::move(contact).value());
-  }
+  if (sceneHasContact(scene)) FEM_CLOTH_CHECK(addContact(scene, *sim.model, x, simulator.pinnedVertices(), simulator));
   const Model::Energies e0 = sim.model->energies(x);
   if (!std::isfinite(e0.total())) {
     return Error{"initial: the initial positions put an element outside the material's domain "

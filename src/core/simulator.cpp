@@ -100,7 +100,7 @@ void Simulator::reset() {
   forces_ = initial_.forces;
   rebuildExternalForce();
   integrator_->invalidate();
-  if (contact_) contact_->reset();
+  if (obstacles_) obstacles_->reset();
   restartAccount();
   lastReport_ = StepReport();
   currentSubsteps_ = std::max(settings_.minSubsteps, 1);
@@ -244,6 +244,13 @@ void Simulator::rebuildExternalForce() {
 
 void Simulator::setAir(std::unique_ptr<AirModel> air) { air_ = std::move(air); }
 
+void Simulator::setContact(std::shared_ptr<ObstacleSet> obstacles, std::unique_ptr<ContactModel> barriers,
+                           std::unique_ptr<ProjectionContact> projection) {
+  obstacles_ = std::move(obstacles);
+  contact_ = std::move(barriers);
+  projection_ = std::move(projection);
+}
+
 StepReport Simulator::step() { return step(settings_.dt); }
 
 StepInput Simulator::stepInput(double dt) {
@@ -259,10 +266,9 @@ StepInput Simulator::stepInput(double dt) {
   input.damping = settings_.damping;
   input.residualScale.acceleration = referenceAcceleration_;
   input.residualScale.tolerance = settings_.acceptance.forceTolerance;
-  if (contact_) {
-    contact_->beginStep(state_.time, dt);
-    input.contact = contact_.get();
-  }
+  if (obstacles_) obstacles_->beginStep(state_.time, dt);
+  input.contact = contact_.get();
+  input.projection = projection_.get();
   input.air = air_.get();
   return input;
 }
@@ -315,7 +321,7 @@ void Simulator::EnergyBook::add(const EnergyStep& step) {
 void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt) {
   book_.add(energy);
   energyNow_ = energy.end;
-  if (contact_) contact_->commitStep();
+  if (obstacles_) obstacles_->commitStep();
   previousPinForce_ = pinForce_;
   state_.time += dt;
   ++state_.step;

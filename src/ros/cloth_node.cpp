@@ -530,15 +530,15 @@ void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool f
     publishPinReactions();
     bool wrenchWanted = false;
     for (const ros::Publisher& pub : obstacleWrenchPubs_) wrenchWanted = wrenchWanted || wanted(pub);
-    if (wrenchWanted && sim.contact() != nullptr) {
-      const std::vector<geometry_msgs::WrenchStamped> wrenches = obstacleWrenches(driver_->header(), *sim.contact());
+    if (wrenchWanted && sim.obstacles() != nullptr) {
+      const std::vector<geometry_msgs::WrenchStamped> wrenches = obstacleWrenches(driver_->header(), *sim.obstacles());
       for (std::size_t k = 0; k < wrenches.size() && k < obstacleWrenchPubs_.size(); ++k) {
         obstacleWrenchPubs_[k].publish(wrenches[k]);
       }
     }
   }
-  if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_) && driver_->simulator().contact()) {
-    obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));
+  if (markerDue && obstacleMarkerPub_ && wanted(obstacleMarkerPub_) && driver_->simulator().obstacles()) {
+    obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().obstacles()));
   }
   perception_->publish(stateDue, markerDue);
   publishDiagnostics(false);
@@ -592,8 +592,8 @@ void ClothNode::refreshObstacleTopics() {
   clear.action = visualization_msgs::Marker::DELETEALL;
   clear.ns = "obstacles";
   markers.markers.push_back(clear);
-  if (const ContactModel* contact = driver_->simulator().contact()) {
-    for (const auto& m : obstacleMarkers(driver_->header(), *contact).markers) markers.markers.push_back(m);
+  if (const ObstacleSet* obstacles = driver_->simulator().obstacles()) {
+    for (const auto& m : obstacleMarkers(driver_->header(), *obstacles).markers) markers.markers.push_back(m);
   }
   obstacleMarkerPub_.publish(markers);
 }
@@ -670,7 +670,7 @@ void ClothNode::begin() {
   restartRealTimeFactorWindow();
   meshPub_.publish(toMsg(driver_->simulator().model().mesh()));
   // Latched: RViz started later, or a paused node, still shows where the obstacles are.
-  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().contact()));
+  if (obstacleMarkerPub_) obstacleMarkerPub_.publish(obstacleMarkers(driver_->header(), *driver_->simulator().obstacles()));
   std_msgs::String sceneMsg;
   sceneMsg.data = sceneText_;
   scenePub_.publish(sceneMsg);

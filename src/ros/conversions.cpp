@@ -245,21 +245,21 @@ GraspWrench fromMsg(const geometry_msgs::WrenchStamped& msg) {
 }
 
 std::vector<geometry_msgs::WrenchStamped> obstacleWrenches(const std_msgs::Header& header,
-                                                           const ContactModel& contact) {
+                                                           const ObstacleSet& obstacles) {
   std::vector<geometry_msgs::WrenchStamped> out;
-  for (std::size_t k = 0; k < contact.numObstacles(); ++k) {
-    const ObstacleWrench& w = contact.wrenches()[k];
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
+    const ObstacleWrench& w = obstacles.wrenches()[k];
     // The model gives the torque about the simulation frame's origin; move it to the shape's.
-    const Eigen::Vector3d origin = contact.shapePose(k).translation();
+    const Eigen::Vector3d origin = obstacles.shapePose(k).translation();
     GraspWrench moved{header.frame_id, w.force, w.torque - origin.cross(w.force)};
     out.push_back(toMsg(header, moved));
   }
   return out;
 }
 
-visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const ContactModel& contact) {
+visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const ObstacleSet& obstacles) {
   visualization_msgs::MarkerArray array;
-  for (std::size_t k = 0; k < contact.numObstacles(); ++k) {
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
     visualization_msgs::Marker m;
     m.header = header;
     m.ns = "obstacles";
@@ -267,7 +267,7 @@ visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, 
     m.action = visualization_msgs::Marker::ADD;
     m.color.r = m.color.g = m.color.b = 0.6f;
     m.color.a = 0.8f;
-    addShapeMarkers(m, contact.obstacle(k).shape, contact.shapePose(k), &array);
+    addShapeMarkers(m, obstacles[k].shape, obstacles.shapePose(k), &array);
   }
   return array;
 }

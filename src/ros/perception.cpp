@@ -416,9 +416,9 @@ std::optional<Eigen::Isometry3d> PerceptionOutputs::cameraPose(const ros::Time& 
 
 std::vector<PlacedShape> PerceptionOutputs::obstacles() const {
   std::vector<PlacedShape> out;
-  if (const ContactModel* contact = driver_.simulator().contact()) {
-    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
-      out.push_back({contact->obstacle(k).shape, contact->shapePose(k)});
+  if (const ObstacleSet* obstacles = driver_.simulator().obstacles()) {
+    for (std::size_t k = 0; k < obstacles->size(); ++k) {
+      out.push_back({(*obstacles)[k].shape, obstacles->shapePose(k)});
     }
   }
   return out;

@@ -128,9 +128,9 @@ std::vector<std::pair<std::string, double>> SimulationDriver::neededTransforms()
     for (int end : times) needed.emplace_back(headerOf(*c).frame_id, end == 0 ? t : t + dt);
   }
   for (const std::string& frame : pinSet_.frames()) needed.emplace_back(frame, t + dt);
-  if (const ContactModel* contact = simulator().contact()) {
-    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
-      const std::string& frame = contact->obstacle(k).frame;
+  if (const ObstacleSet* obstacles = simulator().obstacles()) {
+    for (std::size_t k = 0; k < obstacles->size(); ++k) {
+      const std::string& frame = (*obstacles)[k].frame;
       if (!frame.empty()) needed.emplace_back(frame, t + dt);
     }
   }
@@ -420,10 +420,10 @@ StepReport SimulationDriver::step() {
 }
 
 void SimulationDriver::followObstacleFrames(double time, double endTime) {
-  ContactModel* contact = simulator().contact();
-  if (contact == nullptr) return;
-  for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
-    const Obstacle& o = contact->obstacle(k);
+  ObstacleSet* obstacles = simulator().obstacles();
+  if (obstacles == nullptr) return;
+  for (std::size_t k = 0; k < obstacles->size(); ++k) {
+    const Obstacle& o = (*obstacles)[k];
     if (o.frame.empty()) continue;
     std::string why, inexact;
     auto pose = [&](double when) {
@@ -452,7 +452,7 @@ void SimulationDriver::followObstacleFrames(double time, double endTime) {
     } else if (!inexact.empty()) {
       warnings_.push_back("obstacle '" + o.name + "': " + inexact + " (a replay of this run may differ)");
     }
-    contact->setFramePose(k, *start, *end);
+    obstacles->setFramePose(k, *start, *end);
     obstacleFrame_[k] = *end;
   }
 }
@@ -487,8 +487,8 @@ std::vector<GraspWrench> SimulationDriver::graspWrenches(const VectorX& reaction
 
 std::vector<std::string> SimulationDriver::obstacleNames() const {
   std::vector<std::string> names;
-  if (const ContactModel* contact = simulator().contact()) {
-    for (std::size_t k = 0; k < contact->numObstacles(); ++k) names.push_back(contact->obstacle(k).name);
+  if (const ObstacleSet* obstacles = simulator().obstacles()) {
+    for (std::size_t k = 0; k < obstacles->size(); ++k) names.push_back((*obstacles)[k].name);
   }
   return names;
 }

@@ -184,12 +184,12 @@ std::vector<std::size_t> pickFrames(const std::vector<ClothState>& headers, doub
 class FrameWriter {
  public:
   FrameWriter(const Options& o, const CameraSettings& camera, const Model& model,
-              const ContactModel* contact, const RecordedRun& recorded)
+              const ObstacleSet* obstacles, const RecordedRun& recorded)
       : o_(o), camera_(camera), mesh_(model.mesh()), rest_(model.rest()), recorded_(recorded),
         view_(camera.intrinsics, camera.minRange, camera.maxRange) {
     look_.byStrain = o.byStrain;
-    if (contact != nullptr) {
-      for (std::size_t k = 0; k < contact->numObstacles(); ++k) obstacles_.push_back(contact->obstacle(k));
+    if (obstacles != nullptr) {
+      for (std::size_t k = 0; k < obstacles->size(); ++k) obstacles_.push_back((*obstacles)[k]);
     }
   }
 
@@ -274,7 +274,7 @@ int run(const Options& o) {
     return 2;
   }
   std::filesystem::create_directories(o.out);
-  FrameWriter writer(o, *camera, model, simulation->simulator->contact(), *recorded);
+  FrameWriter writer(o, *camera, model, simulation->simulator->obstacles(), *recorded);
   const std::vector<std::size_t> picked = pickFrames(headers, scene->dt, o.fps);
   for (std::size_t f = 0; f < picked.size(); ++f) {
     const ClothState& header = headers[picked[f]];

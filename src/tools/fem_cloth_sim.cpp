@@ -337,15 +337,15 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
           << ", dissipated by damping " << e.dissipated;
   if (simulator.air() != nullptr) summary << ", air " << e.airWork;
   summary << '\n';
-  if (const ContactModel* contact = simulator.contact()) {
+  if (const ObstacleSet* obstacles = simulator.obstacles()) {
     // What each obstacle carries at the end (N, in the simulation frame): a table under a
     // resting cloth carries its weight.
     const StepReport& last = simulator.lastReport();
     summary << "contact:      " << last.contacts << " contacts at the end, closest "
             << last.minContactDistance << " m, work " << e.contactWork << " J";
-    for (std::size_t k = 0; k < contact->numObstacles(); ++k) {
-      const Eigen::Vector3d f = contact->wrenches()[k].force;
-      summary << "; '" << contact->obstacle(k).name << "' feels [" << f.x() << ", " << f.y() << ", "
+    for (std::size_t k = 0; k < obstacles->size(); ++k) {
+      const Eigen::Vector3d f = obstacles->wrenches()[k].force;
+      summary << "; '" << (*obstacles)[k].name << "' feels [" << f.x() << ", " << f.y() << ", "
               << f.z() << "] N";
     }
     summary << '\n';

@@ -149,7 +149,9 @@ TEST(IntegratorRegistry, CapabilitiesTextNamesTheLimits) {
   EXPECT_EQ(capabilitiesText((*findIntegrator("projective_dynamics"))->supports),
             "materials: arap; bending: quadratic; 3D only; no obstacles; mass damping only");
   EXPECT_EQ(capabilitiesText((*findIntegrator("bdf2"))->supports),
-            "materials: all; bending: all; 2D and 3D; obstacles, self-contact; assembles Hessians");
+            "materials: all; bending: all; 2D and 3D; obstacles (barriers), self-contact; assembles Hessians");
+  EXPECT_EQ(capabilitiesText((*findIntegrator("symplectic_euler"))->supports),
+            "materials: all; bending: all; 2D and 3D; obstacles (projection)");
 }
 
 }  // namespace

@@ -119,7 +119,7 @@ TEST(PinchLift, FingersLiftAndCarryTheClothByFriction) {
       }
     }
     if (k > holdFrom) {
-      const auto& w = s.contact()->wrenches();
+      const auto& w = s.obstacles()->wrenches();
       held -= w[lowerIndex].force + w[upperIndex].force;
       squeeze += w[upperIndex].force.z();
       tableLoad = std::max(tableLoad, w[tableIndex].force.norm());

@@ -367,7 +367,7 @@ struct ContactFixture {
     x = x0;
     for (Index i = 0; i < x.size(); ++i) x[i] += 5e-5 * u(rng);
     pinned.assign(static_cast<std::size_t>(x.size()), 0);
-    contact->beginStep(0.0, 0.01);
+    contact->obstacles().beginStep(0.0, 0.01);
     barriers.bind(*contact);
     friction.bind(*contact);
     frame = backwardEulerFrame(x0, pinned);

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "fem_cloth/core/bending_model.h"
-#include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/contact/obstacle_set.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/integrators/implicit.h"
 #include "fem_cloth/core/integrators/projective_dynamics.h"

@@ -17,6 +17,7 @@
 
 #include "fem_cloth/core/air.h"
 #include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/contact/projection_contact.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {
@@ -71,8 +72,16 @@ class Simulator {
   const Model& model() const { return *model_; }
   Integrator& integrator() { return *integrator_; }
   const Integrator& integrator() const { return *integrator_; }
-  /// Obstacles and self-contact. Without one (the default) no contact code runs at all.
-  void setContact(std::unique_ptr<ContactModel> contact) { contact_ = std::move(contact); }
+  /// Contact: the scene's obstacles (moved through time with the steps), and the one method the
+  /// integrator uses on them (IntegratorCapabilities::contact): the barriers with self-contact
+  /// (implicit steppers) or projection (explicit ones). Without them (the default) no contact
+  /// code runs at all.
+  void setContact(std::shared_ptr<ObstacleSet> obstacles, std::unique_ptr<ContactModel> barriers,
+                  std::unique_ptr<ProjectionContact> projection = nullptr);
+  /// The obstacles; null without contact (an empty set with self-contact only).
+  ObstacleSet* obstacles() { return obstacles_.get(); }
+  const ObstacleSet* obstacles() const { return obstacles_.get(); }
+  /// The barrier contact (implicit steppers), or null.
   ContactModel* contact() { return contact_.get(); }
   const ContactModel* contact() const { return contact_.get(); }
   /// Aerodynamic drag and lift. Without it (the default) no air code runs at all.
@@ -161,7 +170,9 @@ class Simulator {
 
   std::shared_ptr<Model> model_;
   std::unique_ptr<Integrator> integrator_;
+  std::shared_ptr<ObstacleSet> obstacles_;
   std::unique_ptr<ContactModel> contact_;
+  std::unique_ptr<ProjectionContact> projection_;
   std::unique_ptr<AirModel> air_;
   SimulatorSettings settings_;
   StepAcceptance acceptance_;

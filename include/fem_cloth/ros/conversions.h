@@ -17,7 +17,7 @@
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/PinForces.h"
 #include "fem_cloth/StepStats.h"
-#include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/contact/obstacle_set.h"
 #include "fem_cloth/core/mesh.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/pin_set.h"
@@ -58,10 +58,10 @@ GraspWrench fromMsg(const geometry_msgs::WrenchStamped& msg);
 /// Per obstacle (scene order): the force the cloth exerts on it in the simulation frame, torque
 /// about the origin of its shape (a sphere's or box's centre, a plane's point).
 std::vector<geometry_msgs::WrenchStamped> obstacleWrenches(const std_msgs::Header& header,
-                                                           const ContactModel& contact);
+                                                           const ObstacleSet& obstacles);
 /// The obstacles as RViz markers at their current poses: a plane as a thin square slab of side
 /// kPlaneMarkerSide whose top is the plane, a box, a sphere, a capsule as a cylinder and two
 /// spheres; namespace "obstacles", ids 3k to 3k+2.
-visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const ContactModel& contact);
+visualization_msgs::MarkerArray obstacleMarkers(const std_msgs::Header& header, const ObstacleSet& obstacles);
 
 }  // namespace fem_cloth

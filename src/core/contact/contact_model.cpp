@@ -37,7 +37,7 @@ Eigen::Vector3d vertex(const VectorX& x, Index i) { return x.segment<3>(3 * i); 
 
 }  // namespace
 
-ContactModel::ContactModel(const Model& model, std::vector<Obstacle> obstacles,
+ContactModel::ContactModel(const Model& model, std::shared_ptr<ObstacleSet> obstacles,
                            ContactSettings settings, double gravity)
     : mesh_(model.sharedMesh()),
       mass_(model.vertexMasses()),
@@ -58,88 +58,6 @@ ContactModel::ContactModel(const Model& model, std::vector<Obstacle> obstacles,
   }
   meanEdge /= std::max<std::size_t>(edges_.size(), 1);
   cellSize_ = std::max(meanEdge, 2.0 * dHat);
-  frameStart_.assign(obstacles_.size(), Eigen::Isometry3d::Identity());
-  frameEnd_ = frameStart_;
-  poseStart_ = poseEnd_ = inverseStart_ = inverseEnd_ = frameStart_;
-  wrenches_.assign(obstacles_.size(), ObstacleWrench());
-  projectedBy_.assign(static_cast<std::size_t>(mesh_->numVertices()), -1);
-  setSubstepPoses(0.0, 0.0);
-}
-
-// --- Obstacle motion ---------------------------------------------------------------------------
-
-void ContactModel::setFramePose(std::size_t k, const Eigen::Isometry3d& start,
-                                const Eigen::Isometry3d& end) {
-  frameStart_[k] = start;
-  frameEnd_[k] = end;
-}
-
-void ContactModel::beginStep(double time, double dt) {
-  time_ = time;
-  dt_ = dt;
-}
-
-void ContactModel::commitStep() {
-  time_ += dt_;
-  dt_ = 0.0;
-  frameStart_ = frameEnd_;
-}
-
-void ContactModel::reset() {
-  time_ = dt_ = 0.0;
-  std::fill(frameStart_.begin(), frameStart_.end(), Eigen::Isometry3d::Identity());
-  frameEnd_ = frameStart_;
-  std::fill(wrenches_.begin(), wrenches_.end(), ObstacleWrench());
-}
-
-Eigen::Isometry3d ContactModel::shapePoseAt(std::size_t k, double fraction) const {
-  const Obstacle& o = obstacles_[k];
-  Eigen::Isometry3d pose = interpolatePose(frameStart_[k], frameEnd_[k], fraction);
-  if (o.scripted()) pose.translate(o.offsetAt(time_ + fraction * dt_));
-  return pose * o.geometry;
-}
-
-void ContactModel::setSubstepPoses(double f0, double f1) {
-  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-    poseStart_[k] = shapePoseAt(k, f0);
-    poseEnd_[k] = shapePoseAt(k, f1);
-    inverseStart_[k] = poseStart_[k].inverse();
-    inverseEnd_[k] = poseEnd_[k].inverse();
-  }
-}
-
-SignedDistance ContactModel::obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd) {
-  ++checks_;
-  return distanceAt(k, p, atEnd);
-}
-
-SignedDistance ContactModel::distanceAt(std::size_t k, const Eigen::Vector3d& p, bool atEnd) const {
-  const Eigen::Isometry3d& pose = atEnd ? poseEnd_[k] : poseStart_[k];
-  const Eigen::Isometry3d& inverse = atEnd ? inverseEnd_[k] : inverseStart_[k];
-  SignedDistance sd = signedDistance(obstacles_[k].shape, inverse * p);
-  sd.normal = pose.linear() * sd.normal;
-  sd.closest = pose * sd.closest;
-  return sd;
-}
-
-double ContactModel::minimumObstacleDistance(const VectorX& x, const std::vector<char>& pinned,
-                                             Index* vertexOut, std::size_t* obstacleOut) {
-  pinned_ = &pinned;
-  setSubstepPoses(0.0, 0.0);
-  double smallest = kInf;
-  for (Index i = 0; i < mesh_->numVertices(); ++i) {
-    if (!isFree(i)) continue;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const double d = obstacleDistance(k, vertex(x, i), true).distance;
-      if (d < smallest) {
-        smallest = d;
-        if (vertexOut != nullptr) *vertexOut = i;
-        if (obstacleOut != nullptr) *obstacleOut = k;
-      }
-    }
-  }
-  pinned_ = nullptr;
-  return smallest;
 }
 
 double ContactModel::minimumSelfDistance(const VectorX& x) {
@@ -220,7 +138,7 @@ double ContactModel::edgeMollifierThreshold(Index ea, Index eb) const {
 void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gamma, double h,
                                 const std::vector<char>& pinned, double f0, double f1) {
   pinned_ = &pinned;
-  setSubstepPoses(f0, f1);
+  obstacles_->beginSubstep(f0, f1);
   friction_.clear();
   frictionEps_ = settings_.frictionVelocity / gamma;
   // Lagged friction (Li et al. 2020, section 5.3): the normal force lambda of every contact at
@@ -228,9 +146,9 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   const double dHat = settings_.distance;
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      if (!(obstacles_[k].friction > 0.0)) continue;
-      const SignedDistance sd = obstacleDistance(k, vertex(x0, i), false);
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      if (!((*obstacles_)[k].friction > 0.0)) continue;
+      const SignedDistance sd = obstacles_->distance(k, vertex(x0, i), false);
       if (!(sd.distance > 0.0 && sd.distance < dHat)) continue;
       Friction f;
       f.vertices[0] = i;
@@ -240,10 +158,10 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
       // The obstacle's surface point under the vertex moves with the obstacle; relative to it
       // the vertex slides. Velocity is gamma (x - xc), so the obstacle's displacement enters
       // divided by h gamma (1 for backward Euler).
-      const Eigen::Vector3d moved = poseEnd_[k] * (inverseStart_[k] * sd.closest);
+      const Eigen::Vector3d moved = obstacles_->poseEnd(k) * (obstacles_->inverseStart(k) * sd.closest);
       f.offset = (moved - sd.closest) / (h * gamma);
       const double s = sd.distance * sd.distance;
-      f.muLambda = obstacles_[k].friction * kappa_ * mass_[i] *
+      f.muLambda = (*obstacles_)[k].friction * kappa_ * mass_[i] *
                    std::abs(barrier::first(s, sHat_)) * 2.0 * sd.distance;
       f.obstacle = static_cast<int>(k);
       f.point = moved;
@@ -294,32 +212,32 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
   const double dHat = settings_.distance;
   const Index n = mesh_->numVertices();
   x = x0;
-  for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-    if (poseStart_[k].matrix() == poseEnd_[k].matrix()) continue;
-    const Eigen::Isometry3d carry = poseEnd_[k] * inverseStart_[k];
-    const Eigen::Vector3d shift = poseEnd_[k].translation() - poseStart_[k].translation();
-    const double angle = Eigen::AngleAxisd(poseStart_[k].linear().transpose() * poseEnd_[k].linear()).angle();
+  ObstacleSet& obstacles = *obstacles_;
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
+    const Eigen::Isometry3d &start = obstacles.poseStart(k), &end = obstacles.poseEnd(k);
+    if (start.matrix() == end.matrix()) continue;
+    const Eigen::Isometry3d carry = end * obstacles.inverseStart(k);
+    const Eigen::Vector3d shift = end.translation() - start.translation();
+    const double angle = Eigen::AngleAxisd(start.linear().transpose() * end.linear()).angle();
     for (Index i = 0; i < n; ++i) {
       if (!isFree(i)) continue;
       const Eigen::Vector3d p = vertex(x, i);
       // In the obstacle's frame the vertex moves along inverse(pose(t)) p: its speed is at most
       // |shift| + angle |p - centre| (centre anywhere on the way).
       auto distanceAt = [&](double t) {
-        ++checks_;
-        const Eigen::Isometry3d pose = interpolatePose(poseStart_[k], poseEnd_[k], t);
-        return signedDistance(obstacles_[k].shape, pose.inverse() * p).distance;
+        return obstacles.shapeDistance(k, interpolatePose(start, end, t).inverse() * p).distance;
       };
-      const double lp = shift.norm() + angle * ((p - poseStart_[k].translation()).norm() + shift.norm());
+      const double lp = shift.norm() + angle * ((p - start.translation()).norm() + shift.norm());
       if (ccd::comesWithin(distanceAt, distanceAt(0.0), lp, dHat)) x.segment<3>(3 * i) = carry * p;
     }
   }
   for (Index i = 0; i < n; ++i) {
     if (!isFree(i)) continue;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const double d = obstacleDistance(k, vertex(x, i), true).distance;
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      const double d = obstacles_->distance(k, vertex(x, i), true).distance;
       if (!(d > 0.0)) {
         return Error{"vertex " + std::to_string(i) + " would be inside obstacle '" +
-                     obstacles_[k].name + "' (" + std::to_string(d) +
+                     (*obstacles_)[k].name + "' (" + std::to_string(d) +
                      " m): pinched between obstacles, or pushed in by a pin"};
       }
     }
@@ -355,11 +273,11 @@ double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool wi
     const Eigen::Vector3d p = vertex(x, i), step = vertex(dx, i);
     const double length = step.norm();
     if (length == 0.0) continue;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const double d0 = obstacleDistance(k, p, true).distance;
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      const double d0 = obstacles_->distance(k, p, true).distance;
       // A vertex cannot lose more distance than it moves.
       if (length * t < (1.0 - ccd::kRescaling) * d0) continue;
-      auto at = [&](double s) { return obstacleDistance(k, p + s * step, true).distance; };
+      auto at = [&](double s) { return obstacles_->distance(k, p + s * step, true).distance; };
       t = std::min(t, ccd::additive(at, d0, length, t));
     }
   }
@@ -462,8 +380,8 @@ bool ContactModel::addObstacleBarriers(const VectorX& x, Assembly& a) {
   const double dHat = settings_.distance;
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const SignedDistance sd = obstacleDistance(k, vertex(x, i), true);
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      const SignedDistance sd = obstacles_->distance(k, vertex(x, i), true);
       a.note(sd.distance, dHat);
       if (!(sd.distance > 0.0)) return false;
       if (sd.distance >= dHat) continue;
@@ -655,8 +573,8 @@ bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivative
 
 bool ContactModel::addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const {
   const double dHat = settings_.distance;
-  for (std::size_t k = 0; k < obstacles_.size() && isFree(v); ++k) {
-    const SignedDistance sd = distanceAt(k, vertex(x, v), true);
+  for (std::size_t k = 0; k < obstacles_->size() && isFree(v); ++k) {
+    const SignedDistance sd = obstacles_->distanceAt(k, vertex(x, v), true);
     if (!(sd.distance > 0.0)) return false;
     if (sd.distance >= dHat) continue;
     const VertexBarrier b = vertexBarrier(v, sd);
@@ -696,110 +614,15 @@ void ContactModel::addVertexFriction(const VectorX& x, Index v, VertexDerivative
 }
 
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {
-  std::vector<ObstacleWrench> wrench(obstacles_.size());
+  std::vector<ObstacleWrench> wrench(obstacles_->size());
   VectorX gradient = VectorX::Zero(x.size());
   ContactStats here;
   evaluateAll(x, &gradient, nullptr, nullptr, 1.0, &wrench, &here);
-  wrenches_ = wrench;
+  obstacles_->setWrenches(std::move(wrench));
   stats.contacts = here.contacts;
   stats.minDistance = here.minDistance;
   stats.work += -gradient.dot(x - x0);
   pinned_ = nullptr;
-}
-
-// --- Explicit steppers and XPBD ----------------------------------------------------------------
-
-void ContactModel::beginProjection(double f0, double f1) {
-  setSubstepPoses(f0, f1);
-  std::fill(projectedBy_.begin(), projectedBy_.end(), -1);
-  normalPush_.setZero(mesh_->numVertices());
-  correction_.setZero(mesh_->numDofs());
-}
-
-int ContactModel::projectOntoObstacles(VectorX& x, const VectorX& xStart,
-                                       const std::vector<char>& pinned) {
-  pinned_ = &pinned;
-  const double dHat = settings_.distance;
-  int moved = 0;
-  for (Index i = 0; i < mesh_->numVertices(); ++i) {
-    if (!isFree(i)) continue;
-    for (std::size_t k = 0; k < obstacles_.size(); ++k) {
-      const Shape& shape = obstacles_[k].shape;
-      const Eigen::Vector3d local = inverseEnd_[k] * vertex(x, i);
-      ++checks_;
-      SignedDistance sd = signedDistance(shape, local);
-      if (sd.distance >= dHat) continue;
-      if (sd.distance < 0.0) {
-        // Inside: the nearest face may be the wrong one (a vertex that fell onto a table near
-        // its edge is nearer the side). Use the surface where the vertex came in instead, found
-        // by bisection on its path relative to the obstacle since the start of the substep; its
-        // tangent plane supports the (convex) shape, so the vertex pushed out to dHat in front
-        // of it is outside (Bridson et al. 2002 resolve such cases by continuous detection).
-        Eigen::Vector3d outside = inverseStart_[k] * vertex(xStart, i), inside = local;
-        ++checks_;
-        if (signedDistance(shape, outside).distance > 0.0) {
-          for (int it = 0; it < 50; ++it) {
-            const Eigen::Vector3d middle = 0.5 * (outside + inside);
-            ++checks_;
-            (signedDistance(shape, middle).distance > 0.0 ? outside : inside) = middle;
-          }
-          sd = signedDistance(shape, outside);
-        }
-      }
-      const double push = dHat - sd.normal.dot(local - sd.closest);
-      const Eigen::Vector3d move = poseEnd_[k].linear() * (push * sd.normal);
-      x.segment<3>(3 * i) += move;
-      correction_.segment<3>(3 * i) += move;
-      normalPush_[i] += push;
-      projectedBy_[static_cast<std::size_t>(i)] = static_cast<int>(k);
-      ++moved;
-    }
-  }
-  return moved;
-}
-
-// Coulomb friction on the vertices projected in this substep (finishProjection).
-void ContactModel::applyProjectionFriction(VectorX& x, const VectorX& xStart) {
-  for (Index i = 0; i < mesh_->numVertices(); ++i) {
-    const int k = projectedBy_[static_cast<std::size_t>(i)];
-    if (k < 0 || !(obstacles_[static_cast<std::size_t>(k)].friction > 0.0)) continue;
-    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true);
-    // Displacement relative to the obstacle's surface point under the vertex.
-    const Eigen::Vector3d surfaceMotion =
-        sd.closest - poseStart_[static_cast<std::size_t>(k)] * (inverseEnd_[static_cast<std::size_t>(k)] * sd.closest);
-    const Eigen::Vector3d relative = vertex(x, i) - vertex(xStart, i) - surfaceMotion;
-    const Eigen::Vector3d tangential = relative - relative.dot(sd.normal) * sd.normal;
-    const double slide = tangential.norm();
-    if (slide == 0.0) continue;
-    // Coulomb: the friction impulse is at most mu times the normal one (Bridson et al. 2002,
-    // section 7.2): the tangential displacement shrinks by at most mu x normalPush, and stops.
-    const double removed = std::min(slide, obstacles_[static_cast<std::size_t>(k)].friction * normalPush_[i]);
-    const Eigen::Vector3d change = -removed / slide * tangential;
-    x.segment<3>(3 * i) += change;
-    correction_.segment<3>(3 * i) += change;
-  }
-}
-
-void ContactModel::finishProjection(VectorX& x, const VectorX& xStart, double h, double massScale,
-                                    ContactStats& stats) {
-  applyProjectionFriction(x, xStart);
-  std::vector<ObstacleWrench> wrench(obstacles_.size());
-  int contacts = 0;
-  double work = 0.0;
-  for (Index i = 0; i < mesh_->numVertices(); ++i) {
-    const int k = projectedBy_[static_cast<std::size_t>(i)];
-    if (k < 0) continue;
-    ++contacts;
-    const Eigen::Vector3d force = massScale * mass_[i] * vertex(correction_, i) / (h * h);  // on the cloth
-    work += force.dot(vertex(x, i) - vertex(xStart, i));
-    const SignedDistance sd = obstacleDistance(static_cast<std::size_t>(k), vertex(x, i), true);
-    wrench[static_cast<std::size_t>(k)].force -= force;
-    wrench[static_cast<std::size_t>(k)].torque -= sd.closest.cross(force);
-    stats.minDistance = std::min(stats.minDistance, sd.distance);
-  }
-  wrenches_ = wrench;
-  stats.contacts = contacts;
-  stats.work += work;
 }
 
 }  // namespace fem_cloth

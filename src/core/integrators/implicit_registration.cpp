@@ -15,6 +15,7 @@ IntegratorEntry implicitEntry(ImplicitScheme scheme) {
                   ? "second-order implicit (BDF2) by Newton on the incremental potential"
                   : "first-order implicit by Newton on the incremental potential (Gast et al. 2015)";
   // The IPC barrier (obstacles and self-contact) is a term of the potential Newton minimises.
+  e.supports.contact = ContactMethod::Barriers;
   e.supports.selfContact = true;
   e.supports.needsHessian = true;
   e.keys = {"max_newton_iterations", "newton_tolerance", "max_backtracks", "linear_solver",

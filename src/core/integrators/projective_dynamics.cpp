@@ -420,7 +420,7 @@ IntegratorEntry projectiveDynamicsEntry() {
   e.supports.materials = {"arap"};
   e.supports.bendingModels = {BendingModel::Quadratic};
   e.supports.planar = false;
-  e.supports.obstacles = false;
+  e.supports.contact = ContactMethod::None;
   e.supports.stiffnessDamping = false;
   e.keys = {"iterations", "chebyshev_rho"};
   // `iterations` is shared with XPBD (Scene::iterations); chebyshev_rho is its own key, kept in

@@ -71,7 +71,7 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
        [](const IntegratorCapabilities& k, const Scene&) { return k.selfContact; }, "self-contact",
        "", "turn it off"},
       {"obstacles", [](const Scene& x) { return !x.obstacles.empty(); },
-       [](const IntegratorCapabilities& k, const Scene&) { return k.obstacles; },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.contact != ContactMethod::None; },
        "contact with obstacles", "", "remove the obstacles"},
   };
 }
@@ -119,7 +119,9 @@ std::string capabilitiesText(const IntegratorCapabilities& c) {
   const std::vector<std::string> bendingModels = enumNames(bendingModelNames(), c.bendingModels);
   parts.push_back("bending: " + (bendingModels.empty() ? std::string("all") : commaList(bendingModels)));
   parts.push_back(c.planar ? "2D and 3D" : "3D only");
-  parts.push_back(std::string(c.obstacles ? "obstacles" : "no obstacles") +
+  parts.push_back(std::string(c.contact == ContactMethod::Barriers     ? "obstacles (barriers)"
+                              : c.contact == ContactMethod::Projection ? "obstacles (projection)"
+                                                                       : "no obstacles") +
                   (c.selfContact ? ", self-contact" : ""));
   if (!c.stiffnessDamping) parts.push_back("mass damping only");
   if (c.needsHessian) parts.push_back("assembles Hessians");

@@ -5,7 +5,7 @@
 #include <sstream>
 
 #include "fem_cloth/core/air.h"
-#include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/contact/projection_contact.h"
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/integrators/step_common.h"
@@ -131,12 +131,12 @@ void SymplecticEuler::projectContact(const StepInput& input, State& state, int s
                                      double h, std::uint64_t checksBefore, StepReport& report) {
   // Obstacles: project out to the contact distance with Coulomb friction, inelastically (the
   // velocity follows the corrected positions; Bridson et al. 2002, section 7).
-  ContactModel& contact = *input.contact;
-  contact.beginProjection(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
-  contact.projectOntoObstacles(state.x, positionStart_, *input.pinned);
+  ProjectionContact& contact = *input.projection;
+  contact.beginSubstep(static_cast<double>(s) / substeps, static_cast<double>(s + 1) / substeps);
+  contact.project(state.x, positionStart_, *input.pinned);
   ContactStats stats;
-  contact.finishProjection(state.x, positionStart_, h, 1.0 + h * input.damping.massProportional, stats);
-  state.v += contact.projectionCorrection() / h;
+  contact.finishSubstep(state.x, positionStart_, h, 1.0 + h * input.damping.massProportional, stats);
+  state.v += contact.correction() / h;
   recordContact(stats, report);
   report.contactChecks = contact.checks() - checksBefore;
 }
@@ -168,11 +168,11 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
   const double alpha = input.damping.massProportional;
   const double beta = input.damping.stiffnessProportional;
   const VectorX& target = *input.pinTarget;
-  const std::uint64_t checksBefore = input.contact != nullptr ? input.contact->checks() : 0;
+  const std::uint64_t checksBefore = input.projection != nullptr ? input.projection->checks() : 0;
   for (int s = 0; s < substeps; ++s) {
     if (!substepForces(input, state, h, report)) return report;
     velocityStart_ = state.v;
-    if (input.contact != nullptr) positionStart_ = state.x;
+    if (input.projection != nullptr) positionStart_ = state.x;
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) {
         // Along the pin's path to its end-of-step target; the pin supplies what makes the vertex
@@ -186,7 +186,7 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
         state.x[i] += h * state.v[i];
       }
     }
-    if (input.contact != nullptr) projectContact(input, state, s, substeps, h, checksBefore, report);
+    if (input.projection != nullptr) projectContact(input, state, s, substeps, h, checksBefore, report);
     addMassDampingDissipation(h, alpha, state.v, mass, report);
     if (beta > 0.0) report.dissipated += h * state.v.dot(dampingForce_);
     report.airWork += air_.work(state.x);
@@ -223,6 +223,7 @@ IntegratorEntry symplecticEulerEntry() {
   e.name = "symplectic_euler";
   e.summary = "explicit; substeps itself below its CFL bound (cheap steps, many of them when stiff)";
   // Obstacles by projection after each substep; self-contact needs the implicit barrier.
+  e.supports.contact = ContactMethod::Projection;
   e.supports.selfContact = false;
   e.keys = {"auto_substep", "cfl_safety"};
   // Its keys set two of SymplecticEulerSettings' fields (the others keep their defaults); the

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/contact/projection_contact.h"
 #include "fem_cloth/core/energy_forms.h"
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
@@ -85,7 +85,7 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
   unbalanced_.resize(n);
   pinForce.setZero();
 
-  ContactModel* const contact = input.contact;
+  ProjectionContact* const contact = input.projection;
   for (int s = 0; s < substeps; ++s) {
     xStart_ = state.x;
     vStart_ = state.v;
@@ -119,7 +119,7 @@ StepReport Xpbd::step(const StepInput& given, State& state, double dt, int minSu
       for (int it = 0; it < count; ++it, ++sweeps) {
         if (!sweep(model, state.x, h, betaH, report)) return report;
         // Obstacles as hard inequality constraints, projected after each sweep.
-        if (contact != nullptr) contact->projectOntoObstacles(state.x, xStart_, pinned);
+        if (contact != nullptr) contact->project(state.x, xStart_, pinned);
       }
       unbalanced = residual(input, state.x, h, dampedMass, betaH);
       if (unbalanced.relative <= input.residualScale.tolerance || sweeps >= settings_.maxIterations ||
@@ -305,7 +305,7 @@ ForceResidual Xpbd::residual(const StepInput& input, const VectorX& x, double h,
   }
   // Contact projection and friction moved vertices by `correction`: the impulse of the obstacles,
   // an external force M (1 + h alpha) correction / h^2 on them.
-  const VectorX* correction = input.contact != nullptr ? &input.contact->projectionCorrection() : nullptr;
+  const VectorX* correction = input.projection != nullptr ? &input.projection->correction() : nullptr;
   for (Index i = 0; i < x.size(); ++i) {
     const double moved = x[i] - xPredicted_[i] - (correction != nullptr ? (*correction)[i] : 0.0);
     unbalanced_[i] = elasticForce_[i] + mass[i] * dampedMass * moved / (h * h);
@@ -317,18 +317,18 @@ ForceResidual Xpbd::residual(const StepInput& input, const VectorX& x, double h,
 
 // The contact work lives out of line: inlined into step() it slowed the constraint sweeps of
 // scenes without contact by about 15% (fem_cloth_bench Step/xpbd), which must not pay for it.
-void Xpbd::beginContactSubstep(ContactModel& contact, int substep, int substeps) {
-  contact.beginProjection(static_cast<double>(substep) / substeps,
+void Xpbd::beginContactSubstep(ProjectionContact& contact, int substep, int substeps) {
+  contact.beginSubstep(static_cast<double>(substep) / substeps,
                           static_cast<double>(substep + 1) / substeps);
   contactChecksBefore_ = contact.checks();
 }
 
-void Xpbd::finishContactSubstep(ContactModel& contact, VectorX& x, double h, double dampedMass,
+void Xpbd::finishContactSubstep(ProjectionContact& contact, VectorX& x, double h, double dampedMass,
                                 StepReport& report) {
   // Coulomb friction bounded by the substep's total normal correction (Macklin, Mueller,
   // Chentanez & Kim, "Unified Particle Physics for Real-Time Applications", 2014, section 6.1).
   ContactStats stats;
-  contact.finishProjection(x, xStart_, h, dampedMass, stats);
+  contact.finishSubstep(x, xStart_, h, dampedMass, stats);
   recordContact(stats, report);
   report.contactChecks += contact.checks() - contactChecksBefore_;
 }
@@ -343,7 +343,8 @@ IntegratorEntry xpbdEntry() {
   // The materials with a constraint form (optional for a material; empty when all have one).
   e.supports.materials = materialsWithConstraintForm();
   if (e.supports.materials.size() == materialNames().size()) e.supports.materials.clear();
-  e.supports.selfContact = false;  // obstacles by projection after every sweep
+  e.supports.contact = ContactMethod::Projection;  // after every sweep
+  e.supports.selfContact = false;
   e.keys = {"iterations"};
   e.read = [](const SettingsReader& r, Scene& s) { return r.integer("iterations", s.iterations); };
   e.check = [](const Scene& s) { return countInRange(s.iterations, 1, 100'000, "integrator.iterations"); };

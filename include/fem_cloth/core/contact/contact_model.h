@@ -1,4 +1,4 @@
-// Contact of the cloth with rigid obstacles and, optionally, with itself.
+// Barrier contact of the cloth with rigid obstacles and, optionally, with itself.
 //
 // Implicit steppers (backward Euler, BDF2): Incremental Potential Contact (Li et al., "Incremental
 // Potential Contact", SIGGRAPH 2020). The incremental potential gains
@@ -12,14 +12,12 @@
 // +inf at zero distance. Pinned vertices are kinematic: they take no contact with obstacles (the
 // pin wins), but do take part in self-contact.
 //
-// Explicit steppers and XPBD: vertices that come closer than dHat to an obstacle are projected out
-// to dHat along its normal, and Coulomb friction removes tangential motion relative to the
-// obstacle up to mu times that normal correction (Bridson, Fedkiw & Anderson, "Robust Treatment of
-// Collisions, Contact and Friction for Cloth Animation", SIGGRAPH 2002, section 7). No
-// self-collision there.
+// The explicit steppers project vertices out of obstacles instead (projection_contact.h); both
+// methods work on the scene's ObstacleSet (obstacle_set.h), which says where the obstacles are.
 //
-// A scene without obstacles and without self-collision builds no ContactModel at all: no
-// contact code runs (StepReport::contactChecks stays 0).
+// Only integrators with `IntegratorCapabilities::contact = ContactMethod::Barriers` get one, and
+// a scene without obstacles and without self-collision builds none at all: no contact code runs
+// (StepReport::contactChecks stays 0).
 #pragma once
 
 #include <Eigen/SparseCore>
@@ -30,75 +28,32 @@
 #include <string>
 #include <vector>
 
-#include "fem_cloth/core/contact/obstacle.h"
+#include "fem_cloth/core/contact/obstacle_set.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/model.h"
 
 namespace fem_cloth {
 
-struct ContactSettings {
-  double distance = 1e-3;  ///< dHat (m): barriers act below it; explicit steppers keep vertices at it
-  /// Barrier stiffness, as the acceleration (m/s^2) the barrier exerts on a vertex at dHat/2
-  /// (kappa = stiffness / (|b'(dHat^2/4)| dHat)). 0: automatic, the magnitude of gravity (at least
-  /// 9.81), so that a cloth resting under its own weight settles at about dHat/2.
-  double stiffness = 0.0;
-  bool selfCollision = false;
-  double selfFriction = 0.0;       ///< mu of cloth on cloth
-  double frictionVelocity = 1e-3;  ///< eps_v (m/s): slower relative sliding counts as sticking
-};
-
-/// The force the cloth exerts on an obstacle (N) and its moment about the simulation frame's
-/// origin (N m), both in the simulation frame.
-struct ObstacleWrench {
-  Eigen::Vector3d force = Eigen::Vector3d::Zero();
-  Eigen::Vector3d torque = Eigen::Vector3d::Zero();
-};
-
-/// What contact handling did in a (sub)step.
-struct ContactStats {
-  int contacts = 0;           ///< pairs closer than dHat (implicit) or vertices projected (others)
-  double work = 0.0;          ///< J, work of the contact and friction forces on the cloth
-  double minDistance = std::numeric_limits<double>::infinity();  ///< m, over contacts considered
-};
-
 class ContactModel {
  public:
   /// gravity: its magnitude (m/s^2) sets the automatic stiffness.
-  ContactModel(const Model& model, std::vector<Obstacle> obstacles, ContactSettings settings,
+  ContactModel(const Model& model, std::shared_ptr<ObstacleSet> obstacles, ContactSettings settings,
                double gravity);
+  /// Over obstacles of its own (tests, code without a Simulator).
+  ContactModel(const Model& model, std::vector<Obstacle> obstacles, ContactSettings settings,
+               double gravity)
+      : ContactModel(model, std::make_shared<ObstacleSet>(std::move(obstacles)), settings, gravity) {}
 
   const ContactSettings& settings() const { return settings_; }
   /// kappa (1/(s^2 m^2)): a barrier's energy is kappa m b(d^2) with m its mass weight (kg).
   double barrierStiffness() const { return kappa_; }
-  std::size_t numObstacles() const { return obstacles_.size(); }
-  const Obstacle& obstacle(std::size_t k) const { return obstacles_[k]; }
+  const ObstacleSet& obstacles() const { return *obstacles_; }
+  ObstacleSet& obstacles() { return *obstacles_; }
 
-  // --- Obstacle motion -------------------------------------------------------------------------
-  /// The world pose of obstacle k's shape now (after the last step).
-  Eigen::Isometry3d shapePose(std::size_t k) const { return shapePoseAt(k, 0.0); }
-  /// Pose of the frame obstacle k follows at the start and the end of the next step (the ROS
-  /// layer sets it from tf before each step; it stays where it is otherwise).
-  void setFramePose(std::size_t k, const Eigen::Isometry3d& start, const Eigen::Isometry3d& end);
-  /// Before a step from `time` (s) over dt (s); scripted motion is evaluated from these.
-  void beginStep(double time, double dt);
-  /// After a successful step: the end of the step becomes now.
-  void commitStep();
-  /// Back to time 0; frames to the identity.
-  void reset();
-  /// Shape pose at fraction f in [0, 1] of the step being taken.
-  Eigen::Isometry3d shapePoseAt(std::size_t k, double fraction) const;
-
-  /// Wrench on each obstacle at the end of the last step.
-  const std::vector<ObstacleWrench>& wrenches() const { return wrenches_; }
-  /// The smallest distance now between a free vertex and an obstacle (m; inf without obstacles),
-  /// and which.
-  double minimumObstacleDistance(const VectorX& x, const std::vector<char>& pinned,
-                                 Index* vertex = nullptr, std::size_t* obstacle = nullptr);
   /// The smallest distance between point-triangle and edge-edge pairs that share no vertex and
   /// are closer than dHat at x (m; inf if there are none).
   double minimumSelfDistance(const VectorX& x);
 
-  // --- Implicit steppers (IPC) -----------------------------------------------------------------
   /// Starts a substep of length h (s) over the fraction [f0, f1] of the step, from positions x0,
   /// with velocity gamma (x - xc): obstacle poses, and the lagged friction of Li et al. 2020
   /// (section 5.3): normal forces, tangent bases and contact points at x0, fixed for the substep.
@@ -138,28 +93,8 @@ class ContactModel {
   /// After a converged substep at x (from x0): contacts, work, and the obstacles' wrenches.
   void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
 
-  // --- Explicit steppers and XPBD (projection) -------------------------------------------------
-  /// Starts a projection substep over the fraction [f0, f1] of the step: no vertex projected,
-  /// no correction yet.
-  void beginProjection(double f0, double f1);
-  /// Moves every free vertex closer than dHat to an obstacle (at the end of the substep) out to
-  /// dHat along the obstacle's normal (a vertex inside: along the normal where its path from
-  /// xStart entered); adds the distance moved to the vertex's normal push (m) and the
-  /// displacement to the substep's correction (per DOF, m). Returns how many vertices it moved.
-  int projectOntoObstacles(VectorX& x, const VectorX& xStart, const std::vector<char>& pinned);
-  /// After a projection substep of length h: first Coulomb friction on the vertices projected in
-  /// it (their displacement since xStart, relative to the obstacle's surface, loses its
-  /// tangential part up to mu x normal push; x and the correction change accordingly), then the
-  /// contact force massScale m correction / h^2 on each vertex (massScale = 1 + h alpha with
-  /// implicit mass damping alpha, which scales the inertia of the update), its work over
-  /// x - xStart, the obstacles' wrenches and the contact count.
-  void finishProjection(VectorX& x, const VectorX& xStart, double h, double massScale,
-                        ContactStats& stats);
-  /// The displacement (per DOF, m) projection and friction gave x in this substep.
-  const VectorX& projectionCorrection() const { return correction_; }
-
-  /// Distance evaluations so far (never reset: callers take differences).
-  std::uint64_t checks() const { return checks_; }
+  /// Distance evaluations so far, the obstacles' included (never reset: callers take differences).
+  std::uint64_t checks() const { return checks_ + obstacles_->checks(); }
 
  private:
   struct Friction {
@@ -199,12 +134,7 @@ class ContactModel {
   /// The parts of vertexDerivatives (added to out); false when a distance is not positive.
   bool addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const;
   void addVertexFriction(const VectorX& x, Index v, VertexDerivatives& out) const;
-  void setSubstepPoses(double f0, double f1);
-  void applyProjectionFriction(VectorX& x, const VectorX& xStart);
   bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
-  SignedDistance obstacleDistance(std::size_t k, const Eigen::Vector3d& p, bool atEnd);
-  /// The same, not counted in checks().
-  SignedDistance distanceAt(std::size_t k, const Eigen::Vector3d& p, bool atEnd) const;
   void addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
                 std::vector<Eigen::Triplet<double>>* outside) const;
   double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
@@ -237,7 +167,7 @@ class ContactModel {
 
   std::shared_ptr<const Mesh> mesh_;
   VectorX mass_;  // per vertex (kg)
-  std::vector<Obstacle> obstacles_;
+  std::shared_ptr<ObstacleSet> obstacles_;
   ContactSettings settings_;
   double sHat_ = 0.0;
   double kappa_ = 0.0;
@@ -245,13 +175,8 @@ class ContactModel {
   std::vector<std::array<Index, 2>> edges_;
   std::vector<double> restEdgeSquared_;
 
-  // Motion over the step being taken.
-  double time_ = 0.0, dt_ = 0.0;
-  std::vector<Eigen::Isometry3d> frameStart_, frameEnd_;
-
   // The current substep.
   const std::vector<char>* pinned_ = nullptr;
-  std::vector<Eigen::Isometry3d> poseStart_, poseEnd_, inverseStart_, inverseEnd_;
   std::vector<std::pair<int, int>> pointTriangle_, edgeEdge_;
   std::vector<Friction> friction_;
   // Per vertex: its self-contact pairs (point-triangle pairs first, then edge-edge) and its
@@ -267,12 +192,7 @@ class ContactModel {
   std::vector<Span> frictionStencils_;
   double frictionEps_ = 0.0;  // m: eps_v / gamma
   VectorX frictionOrigin_;    // xc: relative displacements are measured from it
-  std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none
-  VectorX normalPush_;            // per vertex: distance projected along normals this substep (m)
-  VectorX correction_;            // per DOF: displacement by projection and friction (m)
-
-  std::vector<ObstacleWrench> wrenches_;
-  std::uint64_t checks_ = 0;
+  std::uint64_t checks_ = 0;  // self-contact distance evaluations
 };
 
 }  // namespace fem_cloth

@@ -20,6 +20,7 @@ namespace fem_cloth {
 
 class AirModel;
 class ContactModel;
+class ProjectionContact;
 
 /// Rayleigh damping: the damping force is -(alpha M + beta K) v, with K the (PSD-projected)
 /// stiffness. alpha (1/s) damps all motion like air drag; beta (s) damps fast elastic
@@ -76,9 +77,12 @@ struct StepInput {
   const std::vector<char>* pinned = nullptr;  ///< per DOF: 1 if pinned
   const VectorX* pinTarget = nullptr;  ///< end-of-step positions of pinned DOFs (m)
   Damping damping;
-  /// Obstacles and self-contact (contact/contact_model.h); null when the scene has neither, and
-  /// then no contact code runs at all.
+  /// Contact, by the method the integrator declares (IntegratorCapabilities::contact): the
+  /// barriers and self-contact (contact/contact_model.h) or the projection onto obstacles
+  /// (contact/projection_contact.h). Null when the scene has neither obstacles nor
+  /// self-contact, and then no contact code runs at all.
   ContactModel* contact = nullptr;
+  ProjectionContact* projection = nullptr;
   /// Aerodynamic drag and lift (core/air.h); null when the scene has no `air`, and then no air
   /// code runs at all.
   AirModel* air = nullptr;

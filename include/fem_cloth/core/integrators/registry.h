@@ -30,14 +30,19 @@ struct Scene;
 
 /// What an integrator can simulate. A scene that asks for more is refused when it is loaded,
 /// naming the key and the integrators that would take it.
+/// How an integrator handles contact with obstacles: not at all, by projecting vertices out of
+/// them after its updates (contact/projection_contact.h), or by the barrier terms of the
+/// incremental potential it minimises (contact/contact_model.h). The scene builds only that one.
+enum class ContactMethod { None, Projection, Barriers };
+
 struct IntegratorCapabilities {
   /// material.model values it simulates; empty: every material.
   std::vector<std::string> materials;
   /// bending.model values it simulates (when bending.stiffness > 0); empty: every model.
   std::vector<BendingModel> bendingModels;
   bool planar = true;            ///< 2D meshes (mesh.dim 2)
-  bool obstacles = true;         ///< contact with obstacles
-  bool selfContact = false;      ///< contact.self_collision
+  ContactMethod contact = ContactMethod::None;  ///< contact with obstacles, and how
+  bool selfContact = false;      ///< contact.self_collision (the barriers only)
   bool stiffnessDamping = true;  ///< damping.stiffness > 0
   bool needsHessian = false;     ///< assembles the model's Hessian (implicit Newton solves)
 };

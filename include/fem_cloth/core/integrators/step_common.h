@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "fem_cloth/core/contact/contact_model.h"
+#include "fem_cloth/core/contact/obstacle_set.h"
 #include "fem_cloth/core/integrators/integrator.h"
 
 namespace fem_cloth {

@@ -10,7 +10,7 @@
 // Mass-proportional damping is treated implicitly (it never limits the step); stiffness-
 // proportional damping is explicit and tightens the bound (see stableStep).
 // Obstacles (when the scene has any): after each substep, vertices closer than the contact
-// distance are projected out to it with Coulomb friction (contact/contact_model.h).
+// distance are projected out to it with Coulomb friction (contact/projection_contact.h).
 #pragma once
 
 #include "fem_cloth/core/air.h"

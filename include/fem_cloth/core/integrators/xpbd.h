@@ -17,7 +17,7 @@
 // still solves the damped backward Euler equations); stiffness-proportional beta uses XPBD's
 // constraint damping (section 3.5).
 // Obstacles (when the scene has any) are inequality constraints projected after every sweep,
-// with Coulomb friction at the end of each substep (contact/contact_model.h).
+// with Coulomb friction at the end of each substep (contact/projection_contact.h).
 #pragma once
 
 #include "fem_cloth/core/air.h"
@@ -56,8 +56,8 @@ class Xpbd final : public Integrator {
   ForceResidual residual(const StepInput& input, const VectorX& x, double h, double dampedMass,
                          double betaH);
   // Contact per substep (only with obstacles); kept out of step() (see xpbd.cpp).
-  [[gnu::noinline]] void beginContactSubstep(ContactModel& contact, int substep, int substeps);
-  [[gnu::noinline]] void finishContactSubstep(ContactModel& contact, VectorX& x, double h,
+  [[gnu::noinline]] void beginContactSubstep(ProjectionContact& contact, int substep, int substeps);
+  [[gnu::noinline]] void finishContactSubstep(ProjectionContact& contact, VectorX& x, double h,
                                               double dampedMass, StepReport& report);
 
   XpbdSettings settings_;

@@ -1,0 +1,109 @@
+// The rigid obstacles of a scene and where they are: the one thing the two contact methods share.
+//
+// Both methods — the barriers of the implicit steppers (contact_model.h) and the projection of
+// the explicit ones (projection_contact.h) — ask the same questions of the obstacles: where each
+// shape is at a fraction of the step being taken (frame poses from tf, scripted motion), how far
+// a point is from it (counted: StepReport::contactChecks), and what force the cloth puts on it
+// (the wrenches, for ~obstacle_wrenches and the summary). The Simulator owns the set and moves it
+// through time (beginStep, commitStep, reset); the ROS layer sets frame poses on it and reads its
+// poses and wrenches; the contact method in use reads and writes the rest.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <limits>
+#include <utility>
+#include <vector>
+
+#include "fem_cloth/core/contact/obstacle.h"
+
+namespace fem_cloth {
+
+struct ContactSettings {
+  double distance = 1e-3;  ///< dHat (m): barriers act below it; explicit steppers keep vertices at it
+  /// Barrier stiffness, as the acceleration (m/s^2) the barrier exerts on a vertex at dHat/2
+  /// (kappa = stiffness / (|b'(dHat^2/4)| dHat)). 0: automatic, the magnitude of gravity (at least
+  /// 9.81), so that a cloth resting under its own weight settles at about dHat/2.
+  double stiffness = 0.0;
+  bool selfCollision = false;
+  double selfFriction = 0.0;       ///< mu of cloth on cloth
+  double frictionVelocity = 1e-3;  ///< eps_v (m/s): slower relative sliding counts as sticking
+};
+
+/// The force the cloth exerts on an obstacle (N) and its moment about the simulation frame's
+/// origin (N m), both in the simulation frame.
+struct ObstacleWrench {
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d torque = Eigen::Vector3d::Zero();
+};
+
+/// What contact handling did in a (sub)step.
+struct ContactStats {
+  int contacts = 0;           ///< pairs closer than dHat (implicit) or vertices projected (others)
+  double work = 0.0;          ///< J, work of the contact and friction forces on the cloth
+  double minDistance = std::numeric_limits<double>::infinity();  ///< m, over contacts considered
+};
+
+class ObstacleSet {
+ public:
+  explicit ObstacleSet(std::vector<Obstacle> obstacles);
+
+  std::size_t size() const { return obstacles_.size(); }
+  bool empty() const { return obstacles_.empty(); }
+  const Obstacle& operator[](std::size_t k) const { return obstacles_[k]; }
+
+  // --- Motion over the step ----------------------------------------------------------------------
+  /// The world pose of obstacle k's shape now (after the last step).
+  Eigen::Isometry3d shapePose(std::size_t k) const { return shapePoseAt(k, 0.0); }
+  /// Pose of the frame obstacle k follows at the start and the end of the next step (the ROS
+  /// layer sets it from tf before each step; it stays where it is otherwise).
+  void setFramePose(std::size_t k, const Eigen::Isometry3d& start, const Eigen::Isometry3d& end);
+  /// Before a step from `time` (s) over dt (s); scripted motion is evaluated from these.
+  void beginStep(double time, double dt);
+  /// After a successful step: the end of the step becomes now.
+  void commitStep();
+  /// Back to time 0; frames to the identity, no wrenches.
+  void reset();
+  /// Shape pose at fraction f in [0, 1] of the step being taken.
+  Eigen::Isometry3d shapePoseAt(std::size_t k, double fraction) const;
+
+  // --- The substep being taken -------------------------------------------------------------------
+  /// The shapes' poses at the fractions f0 and f1 of the step: a substep's start and end.
+  void beginSubstep(double f0, double f1);
+  const Eigen::Isometry3d& poseStart(std::size_t k) const { return poseStart_[k]; }
+  const Eigen::Isometry3d& poseEnd(std::size_t k) const { return poseEnd_[k]; }
+  const Eigen::Isometry3d& inverseStart(std::size_t k) const { return inverseStart_[k]; }
+  const Eigen::Isometry3d& inverseEnd(std::size_t k) const { return inverseEnd_[k]; }
+  /// Signed distance of world point p to obstacle k at the substep's start or end, with the
+  /// normal and the closest point in the world; counted in checks().
+  SignedDistance distance(std::size_t k, const Eigen::Vector3d& p, bool atEnd) {
+    ++checks_;
+    return distanceAt(k, p, atEnd);
+  }
+  /// The same, not counted (const callers: per-vertex access).
+  SignedDistance distanceAt(std::size_t k, const Eigen::Vector3d& p, bool atEnd) const;
+  /// Signed distance of a point given in obstacle k's shape frame (normal and closest point in
+  /// that frame too); counted.
+  SignedDistance shapeDistance(std::size_t k, const Eigen::Vector3d& local) {
+    ++checks_;
+    return signedDistance(obstacles_[k].shape, local);
+  }
+
+  // --- What the cloth does to them ---------------------------------------------------------------
+  /// Wrench on each obstacle at the end of the last step.
+  const std::vector<ObstacleWrench>& wrenches() const { return wrenches_; }
+  void setWrenches(std::vector<ObstacleWrench> wrenches) { wrenches_ = std::move(wrenches); }
+
+  /// Distance evaluations so far (never reset: callers take differences).
+  std::uint64_t checks() const { return checks_; }
+
+ private:
+  std::vector<Obstacle> obstacles_;
+  double time_ = 0.0, dt_ = 0.0;
+  std::vector<Eigen::Isometry3d> frameStart_, frameEnd_;
+  std::vector<Eigen::Isometry3d> poseStart_, poseEnd_, inverseStart_, inverseEnd_;
+  std::vector<ObstacleWrench> wrenches_;
+  std::uint64_t checks_ = 0;
+};
+
+}  // namespace fem_cloth

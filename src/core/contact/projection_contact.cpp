@@ -1,0 +1,107 @@
+#include "fem_cloth/core/contact/projection_contact.h"
+
+#include <algorithm>
+
+namespace fem_cloth {
+
+namespace {
+Eigen::Vector3d vertex(const VectorX& x, Index i) { return x.segment<3>(3 * i); }
+}  // namespace
+
+ProjectionContact::ProjectionContact(const Model& model, std::shared_ptr<ObstacleSet> obstacles,
+                                     double distance)
+    : obstacles_(std::move(obstacles)), mass_(model.vertexMasses()), dHat_(distance) {
+  projectedBy_.assign(static_cast<std::size_t>(mass_.size()), -1);
+}
+
+void ProjectionContact::beginSubstep(double f0, double f1) {
+  obstacles_->beginSubstep(f0, f1);
+  std::fill(projectedBy_.begin(), projectedBy_.end(), -1);
+  normalPush_.setZero(mass_.size());
+  correction_.setZero(3 * mass_.size());
+}
+
+int ProjectionContact::project(VectorX& x, const VectorX& xStart, const std::vector<char>& pinned) {
+  ObstacleSet& obstacles = *obstacles_;
+  int moved = 0;
+  for (Index i = 0; i < mass_.size(); ++i) {
+    if (pinned[static_cast<std::size_t>(3 * i)] != 0) continue;
+    for (std::size_t k = 0; k < obstacles.size(); ++k) {
+      const Eigen::Vector3d local = obstacles.inverseEnd(k) * vertex(x, i);
+      SignedDistance sd = obstacles.shapeDistance(k, local);
+      if (sd.distance >= dHat_) continue;
+      if (sd.distance < 0.0) {
+        // Inside: the nearest face may be the wrong one (a vertex that fell onto a table near
+        // its edge is nearer the side). Use the surface where the vertex came in instead, found
+        // by bisection on its path relative to the obstacle since the start of the substep; its
+        // tangent plane supports the (convex) shape, so the vertex pushed out to dHat in front
+        // of it is outside (Bridson et al. 2002 resolve such cases by continuous detection).
+        Eigen::Vector3d outside = obstacles.inverseStart(k) * vertex(xStart, i), inside = local;
+        if (obstacles.shapeDistance(k, outside).distance > 0.0) {
+          for (int it = 0; it < 50; ++it) {
+            const Eigen::Vector3d middle = 0.5 * (outside + inside);
+            (obstacles.shapeDistance(k, middle).distance > 0.0 ? outside : inside) = middle;
+          }
+          sd = signedDistance(obstacles[k].shape, outside);
+        }
+      }
+      const double push = dHat_ - sd.normal.dot(local - sd.closest);
+      const Eigen::Vector3d move = obstacles.poseEnd(k).linear() * (push * sd.normal);
+      x.segment<3>(3 * i) += move;
+      correction_.segment<3>(3 * i) += move;
+      normalPush_[i] += push;
+      projectedBy_[static_cast<std::size_t>(i)] = static_cast<int>(k);
+      ++moved;
+    }
+  }
+  return moved;
+}
+
+// Coulomb friction on the vertices projected in this substep (finishSubstep).
+void ProjectionContact::applyFriction(VectorX& x, const VectorX& xStart) {
+  ObstacleSet& obstacles = *obstacles_;
+  for (Index i = 0; i < mass_.size(); ++i) {
+    const int projected = projectedBy_[static_cast<std::size_t>(i)];
+    if (projected < 0) continue;
+    const std::size_t k = static_cast<std::size_t>(projected);
+    if (!(obstacles[k].friction > 0.0)) continue;
+    const SignedDistance sd = obstacles.distance(k, vertex(x, i), true);
+    // Displacement relative to the obstacle's surface point under the vertex.
+    const Eigen::Vector3d surfaceMotion = sd.closest - obstacles.poseStart(k) * (obstacles.inverseEnd(k) * sd.closest);
+    const Eigen::Vector3d relative = vertex(x, i) - vertex(xStart, i) - surfaceMotion;
+    const Eigen::Vector3d tangential = relative - relative.dot(sd.normal) * sd.normal;
+    const double slide = tangential.norm();
+    if (slide == 0.0) continue;
+    // Coulomb: the friction impulse is at most mu times the normal one (Bridson et al. 2002,
+    // section 7.2): the tangential displacement shrinks by at most mu x normalPush, and stops.
+    const double removed = std::min(slide, obstacles[k].friction * normalPush_[i]);
+    const Eigen::Vector3d change = -removed / slide * tangential;
+    x.segment<3>(3 * i) += change;
+    correction_.segment<3>(3 * i) += change;
+  }
+}
+
+void ProjectionContact::finishSubstep(VectorX& x, const VectorX& xStart, double h, double massScale,
+                                      ContactStats& stats) {
+  applyFriction(x, xStart);
+  ObstacleSet& obstacles = *obstacles_;
+  std::vector<ObstacleWrench> wrench(obstacles.size());
+  int contacts = 0;
+  double work = 0.0;
+  for (Index i = 0; i < mass_.size(); ++i) {
+    const int k = projectedBy_[static_cast<std::size_t>(i)];
+    if (k < 0) continue;
+    ++contacts;
+    const Eigen::Vector3d force = massScale * mass_[i] * vertex(correction_, i) / (h * h);  // on the cloth
+    work += force.dot(vertex(x, i) - vertex(xStart, i));
+    const SignedDistance sd = obstacles.distance(static_cast<std::size_t>(k), vertex(x, i), true);
+    wrench[static_cast<std::size_t>(k)].force -= force;
+    wrench[static_cast<std::size_t>(k)].torque -= sd.closest.cross(force);
+    stats.minDistance = std::min(stats.minDistance, sd.distance);
+  }
+  obstacles.setWrenches(std::move(wrench));
+  stats.contacts = contacts;
+  stats.work += work;
+}
+
+}  // namespace fem_cloth
