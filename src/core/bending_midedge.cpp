@@ -493,7 +493,6 @@ MidedgeBending::MidedgeBending(const Mesh& mesh, const RestState& rest, double s
   moment_.assign(m, 0.0);
   measureGradient_.assign(m, HingeVector::Zero());
   elementMoment_.assign(elements_.size(), {});
-  incidence_ = stencilIncidence(*this, mesh.numVertices());  // elements, not hinges
 }
 
 void MidedgeBending::appendStencils(std::vector<std::vector<Index>>* stencils) const {
@@ -627,6 +626,7 @@ bool MidedgeBending::evaluateElement(Index index, const VectorX& x, double* ener
 
 bool MidedgeBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                                        VertexDerivatives& out) const {
+  if (!incidence_.isBuilt()) return false;  // not prepared
   out = VertexDerivatives{};
   ElementGradient gradient;
   ElementHessian hessian;

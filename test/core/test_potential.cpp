@@ -154,6 +154,7 @@ TEST(PotentialTerms, PerVertexAccessMatchesDifferencesAndGlobalDerivatives) {
   Model& model = f.sim.simulator->model();
   Potential p(f, ImplicitScheme::Bdf2, false);
   ASSERT_TRUE(p.phi.isBdf2());
+  p.phi.prepareVertexAccess();
   // Away from the start, so that the lagged terms' velocities are not zero.
   const VectorX x = f.state.x + 0.01 * f.state.v;
   checkVertexAccess(p.loads, model, x);

@@ -45,9 +45,10 @@ struct Probe {
 };
 
 // A term of the Model (Request = EvalRequest) or of the incremental potential (TermRequest),
-// its Hessian assembled into `pattern`.
+// its Hessian assembled into `pattern`. Prepares the term's per-vertex access.
 template <class Request, class Term>
 Probe probeOf(Term& term, std::shared_ptr<SparseHessian> pattern, int dim) {
+  term.prepareVertexAccess();
   Probe p;
   p.name = term.name();
   p.dim = dim;
@@ -284,6 +285,7 @@ TEST(VertexAccess, ModelSumsItsTerms) {
   ElasticTerm elastic;
   elastic.bind(model);
   EXPECT_TRUE(elastic.capabilities().perVertex);
+  elastic.prepareVertexAccess();  // the Model's terms
   for (Index v : {0, 7, 12, 24}) {
     VertexDerivatives sum, membrane, bend;
     ASSERT_TRUE(elastic.vertexDerivatives(x, v, HessianMode::Exact, sum));
@@ -292,6 +294,67 @@ TEST(VertexAccess, ModelSumsItsTerms) {
     EXPECT_LE((sum.force - membrane.force - bend.force).norm(), 1e-14 * sum.force.norm());
     EXPECT_LE((sum.hessian - membrane.hessian - bend.hessian).norm(), 1e-14 * sum.hessian.norm());
   }
+}
+
+// Per-vertex access needs prepareVertexAccess() (EnergyTerm's contract): before it a term
+// returns false and leaves `out` as it was; after it, the blocks of a term prepared at once.
+// Preparing again changes nothing. The membrane, every bending model, the Model, the air.
+TEST(VertexAccess, NeedsPreparation) {
+  const Cloth c = sheet(3);
+  const VectorX x = deformed(*c.mesh, 15);
+  VertexDerivatives untouched;
+  untouched.force = Eigen::Vector3d(1.0, -2.0, 3.0);
+  untouched.hessian.setConstant(7.0);
+  // `late` refuses before its preparation, then serves what `early` (prepared at once) does.
+  auto expectPreparation = [&](const std::string& name, auto& early, auto& late, const auto& at) {
+    early.prepareVertexAccess();
+    for (Index v : {0, 12, 24}) {
+      VertexDerivatives d = untouched;
+      EXPECT_FALSE(at(late, v, d)) << name << " vertex " << v;
+      EXPECT_EQ(d.force, untouched.force) << name;
+      EXPECT_EQ(d.hessian, untouched.hessian) << name;
+    }
+    for (int round = 0; round < 2; ++round) {
+      late.prepareVertexAccess();
+      for (Index v : {0, 12, 24}) {
+        VertexDerivatives expected, d = untouched;
+        ASSERT_TRUE(at(early, v, expected)) << name;
+        ASSERT_TRUE(at(late, v, d)) << name << " vertex " << v;
+        EXPECT_EQ(d.force, expected.force) << name;
+        EXPECT_EQ(d.hessian, expected.hessian) << name;
+      }
+    }
+  };
+  auto energyTermAt = [&x](EnergyTerm& term, Index v, VertexDerivatives& d) {
+    return term.vertexDerivatives(x, v, HessianMode::Projected, d);
+  };
+  const Material stvk = *makeMaterial("stvk", Lame{30.0, 50.0});
+  expectPreparation("membrane", *makeMembraneTerm(c.mesh, c.rest, stvk),
+                    *makeMembraneTerm(c.mesh, c.rest, stvk), energyTermAt);
+  for (const std::string& model : bendingModelNames()) {
+    expectPreparation(model, *makeTerm(c, model, 2e-3), *makeTerm(c, model, 2e-3), energyTermAt);
+  }
+  const VectorX masses = lumpedMasses(*c.mesh, *c.rest, 0.2);
+  auto modelOf = [&] {
+    auto model = std::make_unique<Model>(c.mesh, c.rest, masses);
+    model->addTerm(makeMembraneTerm(c.mesh, c.rest, stvk), TermKind::Membrane);
+    model->addTerm(makeTerm(c, "dihedral", 2e-3), TermKind::Bending);
+    return model;
+  };
+  expectPreparation("model", *modelOf(), *modelOf(), [&x](Model& model, Index v, VertexDerivatives& d) {
+    return model.vertexDerivatives(x, v, HessianMode::Exact, d);
+  });
+  const std::vector<char> pinned(static_cast<std::size_t>(x.size()), 0);
+  const SubstepFrame frame = backwardEulerFrame(c.mesh->restPositions, pinned);
+  AirModel earlyAir(c.mesh, AirSettings{}), lateAir(c.mesh, AirSettings{});
+  AirTerm early, late;
+  early.bind(earlyAir);
+  late.bind(lateAir);
+  early.beginSubstep(frame);
+  late.beginSubstep(frame);
+  expectPreparation("air", early, late, [&x](AirTerm& air, Index v, VertexDerivatives& d) {
+    return air.vertexDerivatives(x, v, HessianMode::Exact, d);
+  });
 }
 
 // Outside the domain (an inverted Neo-Hookean triangle) the vertices of the bad element get
@@ -308,6 +371,7 @@ TEST(VertexAccess, RefusesAVertexOfAnElementOutsideItsDomain) {
   x.segment<2>(2 * bad[0]) = 2.0 * foot - p0;
   std::unique_ptr<EnergyTerm> term =
       makeMembraneTerm(c.mesh, c.rest, *makeMaterial("neo_hookean", Lame{30.0, 50.0}));
+  term->prepareVertexAccess();
   VertexDerivatives d;
   for (Index v : bad) EXPECT_FALSE(term->vertexDerivatives(x, v, HessianMode::Exact, d)) << v;
   EXPECT_TRUE(term->vertexDerivatives(x, c.mesh->numVertices() - 1, HessianMode::Exact, d));
@@ -374,6 +438,8 @@ struct ContactFixture {
     barriers.beginSubstep(frame);  // the contact's substep (the potential adds it first)
     friction.beginSubstep(frame);
     barriers.prepareStep(x, VectorX::Zero(x.size()));
+    barriers.prepareVertexAccess();  // after the pairs changed (nothing to prepare yet)
+    friction.prepareVertexAccess();
     std::unique_ptr<EnergyTerm> membrane =
         makeMembraneTerm(cloth.mesh, cloth.rest, *makeMaterial("stvk", Lame{1.0, 1.0}));
     pattern = std::make_shared<SparseHessian>(patternFor(*cloth.mesh, *membrane));
