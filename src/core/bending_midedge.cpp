@@ -638,14 +638,4 @@ bool MidedgeBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMo
   return true;
 }
 
-std::vector<std::vector<Index>> MidedgeBending::elementsOfVertices(Index numVertices) const {
-  std::vector<std::vector<Index>> out(static_cast<std::size_t>(numVertices));
-  for (std::size_t i = 0; i < elements_.size(); ++i) {
-    for (int a = 0; a < elements_[i].numVertices; ++a) {
-      out[static_cast<std::size_t>(elements_[i].vertices[a])].push_back(static_cast<Index>(i));
-    }
-  }
-  return out;
-}
-
 }  // namespace fem_cloth
