@@ -30,7 +30,10 @@ AirModel::AirModel(std::shared_ptr<const Mesh> mesh, AirSettings settings)
     : mesh_(std::move(mesh)), settings_(settings) {
   normal_.assign(mesh_->triangles.size(), Eigen::Vector3d::Zero());
   area_.assign(mesh_->triangles.size(), 0.0);
-  incidence_ = VertexIncidence(mesh_->numVertices(), mesh_->triangles);
+}
+
+void AirModel::prepareVertexAccess() {
+  if (!incidence_.isBuilt()) incidence_.assign(mesh_->numVertices(), mesh_->triangles);
 }
 
 void AirModel::lag(const VectorX& x) {
@@ -78,8 +81,9 @@ void AirModel::force(const VectorX& v, VectorX& out) const {
   }
 }
 
-void AirModel::vertexDerivatives(const VectorX& x, const VectorX& xc, double gamma, Index vertex,
+bool AirModel::vertexDerivatives(const VectorX& x, const VectorX& xc, double gamma, Index vertex,
                                  VertexDerivatives& out) const {
+  if (!incidence_.isBuilt()) return false;  // not prepared
   out = VertexDerivatives{};
   const double half = 0.5 * settings_.density;
   for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
@@ -91,6 +95,7 @@ void AirModel::vertexDerivatives(const VectorX& x, const VectorX& xc, double gam
     // v_r is the mean of the three velocities: each vertex's block gets 1/9.
     out.hessian += triangleCurvature(vr, t) * (half * area_[t] / 9.0);
   }
+  return true;
 }
 
 double AirModel::dissipation(const VectorX& v) const {

@@ -179,15 +179,16 @@ bool dihedralAngle(const HingePositions& x, double* angle, HingeVector* gradient
 // ---------------------------------------------------------------------------------------------
 
 HingeTerm::HingeTerm(const Mesh& mesh, double stiffness)
-    : stiffness_(stiffness), hinges_(buildHinges(mesh)) {
+    : stiffness_(stiffness), numVertices_(mesh.numVertices()), hinges_(buildHinges(mesh)) {
   const std::size_t m = hinges_.size();
   energy_.assign(m, 0.0);
   inDomain_.assign(m, 1);
   gradient_.assign(m, HingeVector::Zero());
-  std::vector<std::array<Index, 4>> stencils;
-  stencils.reserve(m);
-  for (const Hinge& h : hinges_) stencils.push_back(h.vertices);
-  incidence_ = VertexIncidence(mesh.numVertices(), stencils);
+}
+
+void HingeTerm::prepareVertexAccess() {
+  // The derived term's stencils: the hinges, or the mid-edge model's elements.
+  if (!incidence_.isBuilt()) incidence_ = stencilIncidence(*this, numVertices_);
 }
 
 void HingeTerm::appendStencils(std::vector<std::vector<Index>>* stencils) const {
@@ -283,6 +284,7 @@ EvalResult QuadraticBending::evaluate(const VectorX& x, const EvalRequest& reque
 
 bool QuadraticBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
                                          VertexDerivatives& out) const {
+  if (!incidence_.isBuilt()) return false;  // not prepared
   out = VertexDerivatives{};
   for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
     const auto h = static_cast<std::size_t>(use.element);
@@ -380,6 +382,7 @@ EvalResult DihedralBending::evaluate(const VectorX& x, const EvalRequest& reques
 
 bool DihedralBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                                         VertexDerivatives& out) const {
+  if (!incidence_.isBuilt()) return false;  // not prepared
   out = VertexDerivatives{};
   for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
     const auto h = static_cast<std::size_t>(use.element);

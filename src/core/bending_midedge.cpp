@@ -493,7 +493,6 @@ MidedgeBending::MidedgeBending(const Mesh& mesh, const RestState& rest, double s
   moment_.assign(m, 0.0);
   measureGradient_.assign(m, HingeVector::Zero());
   elementMoment_.assign(elements_.size(), {});
-  incidence_ = stencilIncidence(*this, mesh.numVertices());  // elements, not hinges
 }
 
 void MidedgeBending::appendStencils(std::vector<std::vector<Index>>* stencils) const {
@@ -627,6 +626,7 @@ bool MidedgeBending::evaluateElement(Index index, const VectorX& x, double* ener
 
 bool MidedgeBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                                        VertexDerivatives& out) const {
+  if (!incidence_.isBuilt()) return false;  // not prepared
   out = VertexDerivatives{};
   ElementGradient gradient;
   ElementHessian hessian;
@@ -636,16 +636,6 @@ bool MidedgeBending::vertexDerivatives(const VectorX& x, Index vertex, HessianMo
     out.hessian += hessian.block<3, 3>(3 * use.slot, 3 * use.slot);
   }
   return true;
-}
-
-std::vector<std::vector<Index>> MidedgeBending::elementsOfVertices(Index numVertices) const {
-  std::vector<std::vector<Index>> out(static_cast<std::size_t>(numVertices));
-  for (std::size_t i = 0; i < elements_.size(); ++i) {
-    for (int a = 0; a < elements_[i].numVertices; ++a) {
-      out[static_cast<std::size_t>(elements_[i].vertices[a])].push_back(static_cast<Index>(i));
-    }
-  }
-  return out;
 }
 
 }  // namespace fem_cloth

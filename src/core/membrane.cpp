@@ -23,7 +23,6 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
     gradient_.resize(m);
     frames_.resize(m);
     for (std::size_t t = 0; t < m; ++t) frames_[t] = rest_->frame<D>(static_cast<Index>(t));
-    incidence_ = VertexIncidence(mesh_->numVertices(), mesh_->triangles);
   }
 
   std::string name() const override { return std::string("membrane/") + Model::kName; }
@@ -47,8 +46,12 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
   // Per-vertex access: vertex a of triangle t gets A P g_a and the block (a, a) of the element
   // Hessian (membrane.h's kernels restricted to one vertex).
   bool hasVertexDerivatives() const override { return true; }
+  void prepareVertexAccess() override {
+    if (!incidence_.isBuilt()) incidence_.assign(mesh_->numVertices(), mesh_->triangles);
+  }
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                          VertexDerivatives& out) const override {
+    if (!incidence_.isBuilt()) return false;  // not prepared
     out = VertexDerivatives{};
     for (const VertexIncidence::Use& use : incidence_.uses(vertex)) {
       const Index t = use.element;
@@ -248,7 +251,7 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
   std::vector<ElementVector<D>, Eigen::aligned_allocator<ElementVector<D>>> gradient_;
   std::vector<ElementMatrix<D>, Eigen::aligned_allocator<ElementMatrix<D>>> hessian_;
   std::vector<int> offsets_;
-  VertexIncidence incidence_;  // the triangles of each vertex
+  VertexIncidence incidence_;  // the triangles of each vertex (prepareVertexAccess)
 };
 
 template <int D>

@@ -57,15 +57,19 @@ bool Model::hasVertexDerivatives() const {
   return true;
 }
 
+void Model::prepareVertexAccess() {
+  for (Entry& entry : terms_) entry.term->prepareVertexAccess();
+}
+
 bool Model::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                               VertexDerivatives& out) const {
-  out = VertexDerivatives{};
-  VertexDerivatives term;
+  VertexDerivatives sum, term;
   for (const Entry& entry : terms_) {
     if (!entry.term->vertexDerivatives(x, vertex, mode, term)) return false;
-    out.force += term.force;
-    out.hessian += term.hessian;
+    sum.force += term.force;
+    sum.hessian += term.hessian;
   }
+  out = sum;
   return true;
 }
 

@@ -166,7 +166,7 @@ TEST(MidedgeBending, AConstantMomentExertsNoForceOnInteriorVertices) {
   const std::vector<Index> inner = interiorElements(*term, *cloth.mesh, 1.2, 1.2, 0.1);
   std::vector<char> innerElement(term->elements().size(), 0);
   for (Index e : inner) innerElement[e] = 1;
-  const auto byVertex = term->elementsOfVertices(cloth.mesh->numVertices());
+  const VertexIncidence byVertex = stencilIncidence(*term, cloth.mesh->numVertices());
   for (const Eigen::Vector3d& H : kCurvatures) {
     const VectorX x = quadraticHeight(cloth.mesh->restPositions, H, eps, {0.6, 0.6});
     const VectorX g = gradientOf(*term, x);
@@ -181,8 +181,8 @@ TEST(MidedgeBending, AConstantMomentExertsNoForceOnInteriorVertices) {
     ASSERT_GT(scale, 0.0);
     int checked = 0;
     for (Index v = 0; v < cloth.mesh->numVertices(); ++v) {
-      bool allInner = !byVertex[v].empty();
-      for (Index e : byVertex[v]) allInner &= innerElement[e] != 0;
+      bool allInner = byVertex.uses(v).size() > 0;
+      for (const VertexIncidence::Use& use : byVertex.uses(v)) allInner &= innerElement[use.element] != 0;
       if (!allInner) continue;
       ++checked;
       // The linear part cancels; what is left is O(eps) smaller (geometric nonlinearity).
@@ -369,8 +369,8 @@ TEST(MidedgeBending, ElementsSumToTheTerm) {
   const Eigen::MatrixXd Kt = hessianOf(*term, H, x, HessianMode::Exact);
   EXPECT_LT((K - Kt).cwiseAbs().maxCoeff(), 1e-10 * (1 + Kt.cwiseAbs().maxCoeff()));
   // Every vertex's stencils are listed.
-  const auto byVertex = term->elementsOfVertices(n);
-  for (Index v = 0; v < n; ++v) EXPECT_FALSE(byVertex[v].empty()) << v;
+  const VertexIncidence byVertex = stencilIncidence(*term, n);
+  for (Index v = 0; v < n; ++v) EXPECT_GT(byVertex.uses(v).size(), 0u) << v;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,18 +1,12 @@
 // Per-vertex access of the energy terms (EnergyTerm::vertexDerivatives, PotentialTerm's for the
-// air): at every vertex of a deformed sheet, the force and 3 x 3 Hessian block against
-//  - central differences of the term's energy (the force) and of its gradient (the block):
-//    independent of the per-vertex code and of the assembled Hessian;
-//  - the vertex's row of the assembled gradient and its diagonal block of the assembled exact
-//    and projected Hessians (the same model evaluated element by element the other way round).
-// For every material (planar and cloth meshes), every bending model, and the air.
+// air and the contact) at every vertex of a deformed sheet, with checkVertexAccess
+// (vertex_access_check.h): for every material (planar and cloth meshes), every bending model,
+// the air and the contact. The potential's other terms are checked in test_potential.cpp.
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <functional>
-#include <iostream>
 #include <limits>
 #include <random>
-#include <type_traits>
 
 #include "bending_test_support.h"
 #include "fem_cloth/core/air.h"
@@ -21,131 +15,15 @@
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/model.h"
 #include "fem_cloth/core/potential/terms.h"
+#include "vertex_access_check.h"
 
 using namespace fem_cloth;
 using namespace fem_cloth::test;
 
 namespace {
 
-// A term as the checks see it.
-struct Probe {
-  std::string name;
-  int dim = 3;
-  std::function<double(const VectorX&)> energy;
-  std::function<VectorX(const VectorX&)> gradient;
-  std::function<Eigen::MatrixXd(const VectorX&, HessianMode)> hessian;  // dense, assembled
-  std::function<bool(const VectorX&, Index, HessianMode, VertexDerivatives&)> vertex;
-  // Whether the projected block must equal the assembled projected Hessian's (it projects per
-  // element the way the per-vertex path does).
-  bool projectedIsAssembled = true;
-  // Whether the exact block is the exact Hessian's (else, for the contact, the assembled PSD
-  // one's, and the block is not compared with differences of the gradient).
-  bool exactBlocks = true;
-  double step = 0.0;  // m, of the differences; 0: 1e-6 of the span of x
-};
-
-// A term of the Model (Request = EvalRequest) or of the incremental potential (TermRequest),
-// its Hessian assembled into `pattern`.
-template <class Request, class Term>
-Probe probeOf(Term& term, std::shared_ptr<SparseHessian> pattern, int dim) {
-  Probe p;
-  p.name = term.name();
-  p.dim = dim;
-  p.energy = [&term](const VectorX& x) { return term.evaluate(x, Request{}).energy; };
-  p.gradient = [&term](const VectorX& x) {
-    VectorX g = VectorX::Zero(x.size());
-    Request r;
-    r.energy = false;
-    r.gradient = &g;
-    term.evaluate(x, r);
-    return g;
-  };
-  p.hessian = [&term, pattern](const VectorX& x, HessianMode mode) -> Eigen::MatrixXd {
-    pattern->setZero();
-    Request r;
-    r.energy = false;
-    r.hessian = pattern.get();
-    r.hessianMode = mode;
-    // A potential's term may couple vertices the pattern does not (self-contact): triplets.
-    std::vector<Eigen::Triplet<double>> outside;
-    if constexpr (std::is_same_v<Request, TermRequest>) r.outside = &outside;
-    term.evaluate(x, r);
-    Eigen::SparseMatrix<double> extra(x.size(), x.size());
-    extra.setFromTriplets(outside.begin(), outside.end());
-    return Eigen::MatrixXd(pattern->matrix()) + Eigen::MatrixXd(extra);
-  };
-  p.vertex = [&term](const VectorX& x, Index v, HessianMode mode, VertexDerivatives& out) {
-    return term.vertexDerivatives(x, v, mode, out);
-  };
-  return p;
-}
-
 Probe probeOf(EnergyTerm& term, const Mesh& mesh) {
-  return probeOf<EvalRequest>(term, std::make_shared<SparseHessian>(patternFor(mesh, term)), mesh.dim);
-}
-
-double symmetricMinEigenvalue(const Eigen::Matrix3d& A) {
-  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(0.5 * (A + A.transpose())).eigenvalues()[0];
-}
-
-// The largest differences over all vertices, each relative to the size of what it compares.
-// Returns how much the projection changed a block (relative): zero where the term is convex at x.
-double check(const Probe& p, const VectorX& x) {
-  const int d = p.dim;
-  const Index n = x.size() / d;
-  const VectorX g = p.gradient(x);
-  const Eigen::MatrixXd H = p.hessian(x, HessianMode::Exact);
-  const Eigen::MatrixXd Hp = p.hessian(x, HessianMode::Projected);
-  const double fScale = std::max(g.cwiseAbs().maxCoeff(), 1e-300);
-  const double hScale = std::max(H.cwiseAbs().maxCoeff(), 1e-300);
-  const double span = (x.maxCoeff() - x.minCoeff());
-  const double step = p.step > 0.0 ? p.step : 1e-6 * span;
-  double forceFd = 0.0, forceRow = 0.0, blockFd = 0.0, blockExact = 0.0, blockProjected = 0.0;
-  double negative = 0.0, projection = 0.0;
-  for (Index v = 0; v < n; ++v) {
-    VertexDerivatives exact, projected;
-    const bool servedExact = p.vertex(x, v, HessianMode::Exact, exact);
-    const bool servedProjected = p.vertex(x, v, HessianMode::Projected, projected);
-    EXPECT_TRUE(servedExact && servedProjected) << p.name << " vertex " << v;
-    if (!servedExact || !servedProjected) return 0.0;
-    projection = std::max(projection, (projected.hessian - exact.hessian).cwiseAbs().maxCoeff());
-    for (int a = 0; a < 3; ++a) {
-      if (a >= d) {
-        // A planar mesh uses the top-left d x d only.
-        EXPECT_EQ(exact.force[a], 0.0) << p.name;
-        EXPECT_EQ(exact.hessian.row(a).norm() + exact.hessian.col(a).norm(), 0.0) << p.name;
-        continue;
-      }
-      VectorX xp = x, xm = x;
-      xp[d * v + a] += step;
-      xm[d * v + a] -= step;
-      forceFd = std::max(forceFd, std::abs(exact.force[a] + (p.energy(xp) - p.energy(xm)) / (2 * step)));
-      forceRow = std::max(forceRow, std::abs(exact.force[a] + g[d * v + a]));
-      const VectorX column = (p.gradient(xp) - p.gradient(xm)) / (2 * step);
-      for (int b = 0; b < d; ++b) {
-        if (p.exactBlocks) blockFd = std::max(blockFd, std::abs(exact.hessian(b, a) - column[d * v + b]));
-        blockExact = std::max(blockExact, std::abs(exact.hessian(b, a) - H(d * v + b, d * v + a)));
-        if (p.projectedIsAssembled) {
-          blockProjected =
-              std::max(blockProjected, std::abs(projected.hessian(b, a) - Hp(d * v + b, d * v + a)));
-        }
-      }
-    }
-    negative = std::min(negative, symmetricMinEigenvalue(projected.hessian));
-  }
-  std::cout << p.name << " (" << d << "D): force vs differences of E " << forceFd / fScale
-            << ", vs gradient row " << forceRow / fScale << "; block vs differences of the gradient "
-            << blockFd / hScale << ", vs exact Hessian " << blockExact / hScale
-            << ", projected vs projected Hessian " << blockProjected / hScale
-            << ", most negative projected eigenvalue " << negative / hScale
-            << "; the projection changed blocks by " << projection / hScale << " (relative)\n";
-  EXPECT_LT(forceFd, 1e-6 * fScale) << p.name;
-  EXPECT_LT(forceRow, 1e-12 * fScale) << p.name;
-  EXPECT_LT(blockFd, 1e-5 * hScale) << p.name;
-  EXPECT_LT(blockExact, 1e-12 * hScale) << p.name;
-  EXPECT_LT(blockProjected, 1e-12 * hScale) << p.name;
-  EXPECT_GT(negative, -1e-12 * hScale) << p.name;
-  return projection / hScale;
+  return test::probeOf<EvalRequest>(term, std::make_shared<SparseHessian>(patternFor(mesh, term)), mesh.dim);
 }
 
 // A 5 x 5 grid, 0.2 m: in 3D curved (z = 0.8 x^2 - 0.5 x y) and jittered by up to 4 mm; in 2D
@@ -222,7 +100,7 @@ TEST(VertexAccess, MembraneOfEveryMaterialPlanarAndCloth) {
       ASSERT_TRUE(material.ok()) << name;
       std::unique_ptr<EnergyTerm> term = makeMembraneTerm(c.mesh, c.rest, *material);
       ASSERT_TRUE(term->hasVertexDerivatives()) << name;
-      projected = std::max(projected, check(probeOf(*term, *c.mesh), x));
+      projected = std::max(projected, checkVertexAccess(probeOf(*term, *c.mesh), x));
     }
     // The projected path is exercised: some material is not convex at this deformation.
     EXPECT_GT(projected, 1e-3) << dim << "D";
@@ -239,7 +117,7 @@ TEST(VertexAccess, EveryBendingModel) {
     // The mid-edge model projects the assembled Hessian per hinge, an element per element: its
     // projected block is only checked to be PSD.
     p.projectedIsAssembled = model != "midedge";
-    const double projected = check(p, x);
+    const double projected = checkVertexAccess(p, x);
     if (model == "dihedral") {
       EXPECT_GT(projected, 1e-6) << "the projection is exercised";
     }
@@ -266,7 +144,7 @@ TEST(VertexAccess, Air) {
   std::vector<std::vector<Index>> triangles;
   for (const Triangle& t : c.mesh->triangles) triangles.push_back({t[0], t[1], t[2]});
   auto pattern = std::make_shared<SparseHessian>(c.mesh->numVertices(), 3, triangles);
-  check(probeOf<TermRequest>(term, pattern, 3), x);
+  checkVertexAccess(probeOf<TermRequest>(term, pattern, 3), x);
 }
 
 // The Model sums its terms; it offers the access only when all of them do.
@@ -284,6 +162,7 @@ TEST(VertexAccess, ModelSumsItsTerms) {
   ElasticTerm elastic;
   elastic.bind(model);
   EXPECT_TRUE(elastic.capabilities().perVertex);
+  elastic.prepareVertexAccess();  // the Model's terms
   for (Index v : {0, 7, 12, 24}) {
     VertexDerivatives sum, membrane, bend;
     ASSERT_TRUE(elastic.vertexDerivatives(x, v, HessianMode::Exact, sum));
@@ -292,6 +171,67 @@ TEST(VertexAccess, ModelSumsItsTerms) {
     EXPECT_LE((sum.force - membrane.force - bend.force).norm(), 1e-14 * sum.force.norm());
     EXPECT_LE((sum.hessian - membrane.hessian - bend.hessian).norm(), 1e-14 * sum.hessian.norm());
   }
+}
+
+// Per-vertex access needs prepareVertexAccess() (EnergyTerm's contract): before it a term
+// returns false and leaves `out` as it was; after it, the blocks of a term prepared at once.
+// Preparing again changes nothing. The membrane, every bending model, the Model, the air.
+TEST(VertexAccess, NeedsPreparation) {
+  const Cloth c = sheet(3);
+  const VectorX x = deformed(*c.mesh, 15);
+  VertexDerivatives untouched;
+  untouched.force = Eigen::Vector3d(1.0, -2.0, 3.0);
+  untouched.hessian.setConstant(7.0);
+  // `late` refuses before its preparation, then serves what `early` (prepared at once) does.
+  auto expectPreparation = [&](const std::string& name, auto& early, auto& late, const auto& at) {
+    early.prepareVertexAccess();
+    for (Index v : {0, 12, 24}) {
+      VertexDerivatives d = untouched;
+      EXPECT_FALSE(at(late, v, d)) << name << " vertex " << v;
+      EXPECT_EQ(d.force, untouched.force) << name;
+      EXPECT_EQ(d.hessian, untouched.hessian) << name;
+    }
+    for (int round = 0; round < 2; ++round) {
+      late.prepareVertexAccess();
+      for (Index v : {0, 12, 24}) {
+        VertexDerivatives expected, d = untouched;
+        ASSERT_TRUE(at(early, v, expected)) << name;
+        ASSERT_TRUE(at(late, v, d)) << name << " vertex " << v;
+        EXPECT_EQ(d.force, expected.force) << name;
+        EXPECT_EQ(d.hessian, expected.hessian) << name;
+      }
+    }
+  };
+  auto energyTermAt = [&x](EnergyTerm& term, Index v, VertexDerivatives& d) {
+    return term.vertexDerivatives(x, v, HessianMode::Projected, d);
+  };
+  const Material stvk = *makeMaterial("stvk", Lame{30.0, 50.0});
+  expectPreparation("membrane", *makeMembraneTerm(c.mesh, c.rest, stvk),
+                    *makeMembraneTerm(c.mesh, c.rest, stvk), energyTermAt);
+  for (const std::string& model : bendingModelNames()) {
+    expectPreparation(model, *makeTerm(c, model, 2e-3), *makeTerm(c, model, 2e-3), energyTermAt);
+  }
+  const VectorX masses = lumpedMasses(*c.mesh, *c.rest, 0.2);
+  auto modelOf = [&] {
+    auto model = std::make_unique<Model>(c.mesh, c.rest, masses);
+    model->addTerm(makeMembraneTerm(c.mesh, c.rest, stvk), TermKind::Membrane);
+    model->addTerm(makeTerm(c, "dihedral", 2e-3), TermKind::Bending);
+    return model;
+  };
+  expectPreparation("model", *modelOf(), *modelOf(), [&x](Model& model, Index v, VertexDerivatives& d) {
+    return model.vertexDerivatives(x, v, HessianMode::Exact, d);
+  });
+  const std::vector<char> pinned(static_cast<std::size_t>(x.size()), 0);
+  const SubstepFrame frame = backwardEulerFrame(c.mesh->restPositions, pinned);
+  AirModel earlyAir(c.mesh, AirSettings{}), lateAir(c.mesh, AirSettings{});
+  AirTerm early, late;
+  early.bind(earlyAir);
+  late.bind(lateAir);
+  early.beginSubstep(frame);
+  late.beginSubstep(frame);
+  expectPreparation("air", early, late, [&x](AirTerm& air, Index v, VertexDerivatives& d) {
+    return air.vertexDerivatives(x, v, HessianMode::Exact, d);
+  });
 }
 
 // Outside the domain (an inverted Neo-Hookean triangle) the vertices of the bad element get
@@ -308,6 +248,7 @@ TEST(VertexAccess, RefusesAVertexOfAnElementOutsideItsDomain) {
   x.segment<2>(2 * bad[0]) = 2.0 * foot - p0;
   std::unique_ptr<EnergyTerm> term =
       makeMembraneTerm(c.mesh, c.rest, *makeMaterial("neo_hookean", Lame{30.0, 50.0}));
+  term->prepareVertexAccess();
   VertexDerivatives d;
   for (Index v : bad) EXPECT_FALSE(term->vertexDerivatives(x, v, HessianMode::Exact, d)) << v;
   EXPECT_TRUE(term->vertexDerivatives(x, c.mesh->numVertices() - 1, HessianMode::Exact, d));
@@ -374,6 +315,8 @@ struct ContactFixture {
     barriers.beginSubstep(frame);  // the contact's substep (the potential adds it first)
     friction.beginSubstep(frame);
     barriers.prepareStep(x, VectorX::Zero(x.size()));
+    barriers.prepareVertexAccess();  // after the pairs changed (nothing to prepare yet)
+    friction.prepareVertexAccess();
     std::unique_ptr<EnergyTerm> membrane =
         makeMembraneTerm(cloth.mesh, cloth.rest, *makeMaterial("stvk", Lame{1.0, 1.0}));
     pattern = std::make_shared<SparseHessian>(patternFor(*cloth.mesh, *membrane));
@@ -404,8 +347,8 @@ TEST(VertexAccess, ContactBarriersAndFriction) {
     ContactFixture f(obstacles, self);
     EXPECT_TRUE(f.barriers.capabilities().perVertex);
     EXPECT_TRUE(f.friction.capabilities().perVertex);
-    check(f.probe(f.barriers), f.x);
-    check(f.probe(f.friction), f.x);
+    checkVertexAccess(f.probe(f.barriers), f.x);
+    checkVertexAccess(f.probe(f.friction), f.x);
     // The friction continues the barriers' sum (continuesSum): the two give the bits of the
     // contact's energy summed as one.
     TermRequest r;

@@ -53,10 +53,13 @@ class AirModel {
   double dissipation(const VectorX& v) const;
   /// Adds scale x d^2 D / dv^2 at v into H (whose pattern couples each triangle's vertices).
   void addHessian(const VectorX& v, double scale, SparseHessian& H);
+  /// Builds the table of each vertex's triangles vertexDerivatives reads (once: the mesh does
+  /// not change; EnergyTerm::prepareVertexAccess's contract).
+  void prepareVertexAccess();
   /// Per-vertex access (for local solvers): at the velocities v = gamma (x - xc), the air force
   /// on `vertex` (N) into out.force and d^2D/dv_v^2 (N s/m, PSD) into out.hessian, from the
-  /// vertex's triangles only. Thread-safe.
-  void vertexDerivatives(const VectorX& x, const VectorX& xc, double gamma, Index vertex,
+  /// vertex's triangles only. Thread-safe. False, out untouched, before prepareVertexAccess().
+  bool vertexDerivatives(const VectorX& x, const VectorX& xc, double gamma, Index vertex,
                          VertexDerivatives& out) const;
   /// A bound on the fastest decay rate (1/s) the drag gives any vertex at v (Gershgorin over
   /// d(force)/dv / m): an explicit substep h is stable and does not reverse the relative
@@ -74,7 +77,7 @@ class AirModel {
   AirSettings settings_;
   std::vector<Eigen::Vector3d> normal_;
   std::vector<double> area_;
-  VertexIncidence incidence_;  // the triangles of each vertex
+  VertexIncidence incidence_;  // the triangles of each vertex (prepareVertexAccess)
   // Hessian slots of each triangle's vertex pairs, for the pattern they were taken from.
   std::vector<int> offsets_;
   const SparseHessian* offsetsFor_ = nullptr;

@@ -87,8 +87,10 @@ class HingeTerm : public EnergyTerm {
 
   void appendStencils(std::vector<std::vector<Index>>* stencils) const override;
   void bindHessian(const SparseHessian& hessian) override;
-  /// Every hinge-based model offers per-vertex access (EnergyTerm::vertexDerivatives).
+  /// Every hinge-based model offers per-vertex access (EnergyTerm::vertexDerivatives), once
+  /// prepared: the table of the stencils (appendStencils) around each vertex, built once.
   bool hasVertexDerivatives() const override { return true; }
+  void prepareVertexAccess() override;
 
  protected:
   /// Preconditions (checked by makeBendingTerm): a 3D mesh, rest computed from it, finite k >= 0.
@@ -104,12 +106,14 @@ class HingeTerm : public EnergyTerm {
   static constexpr std::size_t kOffsetsPerHinge = 4 * 4 * 3;
 
   double stiffness_;
+  Index numVertices_;
   std::vector<Hinge> hinges_;
   std::vector<double> energy_;
   std::vector<char> inDomain_;
   std::vector<HingeVector, Eigen::aligned_allocator<HingeVector>> gradient_;
   std::vector<int> offsets_;
-  /// The stencils (hinges; the mid-edge model's elements) around each vertex.
+  /// The stencils (hinges; the mid-edge model's elements) around each vertex; empty until
+  /// prepareVertexAccess().
   VertexIncidence incidence_;
 };
 

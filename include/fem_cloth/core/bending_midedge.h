@@ -134,8 +134,6 @@ class MidedgeBending final : public HingeTerm {
   /// domain. Thread-safe.
   bool evaluateElement(Index e, const VectorX& x, double* energy, ElementGradient* gradient,
                        ElementHessian* hessian, HessianMode mode = HessianMode::Exact) const;
-  /// The elements whose stencil contains each vertex (the vertex's stencils).
-  std::vector<std::vector<Index>> elementsOfVertices(Index numVertices) const;
 
  private:
   void addGaussNewton(SparseHessian& hessian) const;

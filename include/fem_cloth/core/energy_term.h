@@ -87,9 +87,18 @@ class EnergyTerm {
   /// elements whose stencil holds it, summed. Exact: the block of the exact Hessian; Projected:
   /// each element's Hessian made PSD first, as evaluate() projects it, so the block is PSD. The
   /// elements around one vertex only are evaluated (cost independent of the mesh size), and the
-  /// call is thread-safe (no member is written). False when the term does not offer it
-  /// (hasVertexDerivatives) or an element around the vertex is outside its domain.
+  /// call is thread-safe once prepared (no member is written). False when the term does not
+  /// offer it (hasVertexDerivatives), is not prepared, or an element around the vertex is
+  /// outside its domain.
+  ///
+  /// The contract: a term offering it needs prepareVertexAccess() once after construction, and,
+  /// a term whose elements change (contact pairs), after every change, before vertexDerivatives.
+  /// Until then vertexDerivatives returns false without touching `out`. Construction builds none
+  /// of it (the vertex-to-element table), so a scene whose solver never asks does not pay for it.
   virtual bool hasVertexDerivatives() const { return false; }
+  /// Builds what vertexDerivatives reads (a VertexIncidence table); not thread-safe, cheap when
+  /// nothing changed since the last call. Nothing to prepare by default.
+  virtual void prepareVertexAccess() {}
   virtual bool vertexDerivatives(const VectorX& /*x*/, Index /*vertex*/, HessianMode /*mode*/,
                                  VertexDerivatives& /*out*/) const {
     return false;

@@ -81,6 +81,8 @@ class VertexIncidence {
     }
   }
 
+  /// False for a default-constructed table (nothing assigned yet), true once assigned.
+  bool isBuilt() const { return !start_.empty(); }
   Index numVertices() const { return start_.empty() ? 0 : static_cast<Index>(start_.size() - 1); }
   Range uses(Index vertex) const {
     const Use* base = uses_.data();

@@ -46,8 +46,10 @@ class Model {
   EvalResult evaluate(const VectorX& x, const EvalRequest& request);
 
   /// Per-vertex access (EnergyTerm::vertexDerivatives) summed over the terms: offered when every
-  /// term offers it; false when one does not, or is outside its domain around the vertex.
+  /// term offers it; false, out untouched, when one does not, is not prepared, or is outside its
+  /// domain around the vertex. prepareVertexAccess() prepares every term (EnergyTerm's contract).
   bool hasVertexDerivatives() const;
+  void prepareVertexAccess();
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                          VertexDerivatives& out) const;
 

@@ -44,6 +44,10 @@ void IncrementalPotential::addTerm(PotentialTerm& term) {
   term.beginSubstep(frame_);
 }
 
+void IncrementalPotential::prepareVertexAccess() {
+  for (PotentialTerm* term : terms_) term->prepareVertexAccess();
+}
+
 TermsEvaluation IncrementalPotential::evaluateTerms(const VectorX& x, VectorX* termGradient) {
   if (termGradient != nullptr) termGradient->setZero(x.size());
   TermRequest request;

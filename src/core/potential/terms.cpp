@@ -31,6 +31,8 @@ TermCapabilities ElasticTerm::capabilities() const {
   return c;
 }
 
+void ElasticTerm::prepareVertexAccess() { model_->prepareVertexAccess(); }
+
 bool ElasticTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                                     VertexDerivatives& out) const {
   return model_->vertexDerivatives(x, vertex, mode, out);
@@ -177,9 +179,11 @@ EvalResult AirTerm::evaluate(const VectorX& x, const TermRequest& request) {
   return r;
 }
 
+void AirTerm::prepareVertexAccess() { air_->prepareVertexAccess(); }
+
 bool AirTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
                                 VertexDerivatives& out) const {
-  air_->vertexDerivatives(x, *frame_.xc, frame_.gamma, vertex, out);
+  if (!air_->vertexDerivatives(x, *frame_.xc, frame_.gamma, vertex, out)) return false;
   out.force *= frame_.c2;
   out.hessian *= frame_.c2 * frame_.gamma;
   return true;

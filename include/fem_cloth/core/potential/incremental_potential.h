@@ -69,6 +69,8 @@ class IncrementalPotential {
   /// entries outside it as triplets into `outside` (cleared first).
   void hessian(const VectorX& x, SparseHessian& hessian,
                std::vector<Eigen::Triplet<double>>& outside);
+  /// Prepares per-vertex access of every term added (PotentialTerm::prepareVertexAccess).
+  void prepareVertexAccess();
   /// Readies the step-bounding terms for x + t dx and returns the largest safe t in [0, 1].
   double prepareStep(const VectorX& x, const VectorX& dx);
   /// The size of the round-off in Phi at a point: |Phi| + 2 c^2 (|stored| + |load|).

@@ -93,8 +93,14 @@ class PotentialTerm {
   /// Per-vertex access (capabilities().perVertex; VertexDerivatives in energy_term.h): the
   /// term's force and 3 x 3 Hessian block at one vertex, in the units of its share of Phi (for
   /// conservative and load terms, of E: the potential weights them by c^2). mode as for
-  /// EnergyTerm::vertexDerivatives. False when the term does not offer it or an element around
-  /// the vertex is outside its domain.
+  /// EnergyTerm::vertexDerivatives. False when the term does not offer it, is not prepared, or
+  /// an element around the vertex is outside its domain.
+  ///
+  /// The contract is EnergyTerm's: prepareVertexAccess() once after construction (for a term
+  /// whose elements change, such as contact pairs, after every change) before vertexDerivatives,
+  /// which until then returns false without touching `out`; after it, vertexDerivatives is
+  /// const and thread-safe. Nothing to prepare by default (the loads, the damping).
+  virtual void prepareVertexAccess() {}
   virtual bool vertexDerivatives(const VectorX& /*x*/, Index /*vertex*/, HessianMode /*mode*/,
                                  VertexDerivatives& /*out*/) const {
     return false;

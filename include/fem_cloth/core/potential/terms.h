@@ -21,6 +21,8 @@ class ElasticTerm final : public PotentialTerm {
   /// Per-vertex when every term of the Model offers it (Model::hasVertexDerivatives).
   TermCapabilities capabilities() const override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
+  /// Model::prepareVertexAccess.
+  void prepareVertexAccess() override;
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                          VertexDerivatives& out) const override;
 
@@ -113,6 +115,8 @@ class AirTerm final : public PotentialTerm {
   TermCapabilities capabilities() const override { return {true, false, true, false}; }
   void beginSubstep(const SubstepFrame& frame) override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
+  /// AirModel::prepareVertexAccess.
+  void prepareVertexAccess() override;
   /// The air's share at one vertex: force c^2 f_v at v = gamma (x - xc) of its triangles,
   /// block c^2 gamma d^2D/dv_v^2 (PSD in both modes).
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
