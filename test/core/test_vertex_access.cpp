@@ -363,3 +363,37 @@ TEST(VertexAccess, ContactBarriersAndFriction) {
     EXPECT_GT(f.largestForce(n, 2 * n), 0.0) << obstacles << self;
   }
 }
+
+// The contact's per-vertex tables go stale when its pairs change (a new broad phase in
+// prepareStep, a new substep's friction in beginSubstep): per-vertex access refuses, leaving `out`
+// alone, until prepareVertexAccess() rebuilds them, and then gives what it gave before (the
+// same pairs here). The Newton solver, which never asks, never builds them.
+TEST(VertexAccess, ContactNeedsPreparationAfterItsPairsChange) {
+  ContactFixture f(true, true);
+  const Index v = f.cloth.mesh->numVertices() / 2 + 12;  // the upper sheet's, under the ball
+  VertexDerivatives barrier, friction;
+  ASSERT_TRUE(f.barriers.vertexDerivatives(f.x, v, HessianMode::Projected, barrier));
+  ASSERT_TRUE(f.friction.vertexDerivatives(f.x, v, HessianMode::Projected, friction));
+  ASSERT_GT(barrier.force.norm(), 0.0);
+  ASSERT_GT(friction.force.norm(), 0.0);
+  VertexDerivatives untouched;
+  untouched.force = Eigen::Vector3d(1.0, 2.0, 3.0);
+  auto expectStaleThenFresh = [&](const std::string& change) {
+    VertexDerivatives d = untouched;
+    EXPECT_FALSE(f.barriers.vertexDerivatives(f.x, v, HessianMode::Projected, d)) << change;
+    EXPECT_FALSE(f.friction.vertexDerivatives(f.x, v, HessianMode::Projected, d)) << change;
+    EXPECT_EQ(d.force, untouched.force) << change;
+    f.barriers.prepareVertexAccess();
+    ASSERT_TRUE(f.barriers.vertexDerivatives(f.x, v, HessianMode::Projected, d)) << change;
+    EXPECT_EQ(d.force, barrier.force) << change;
+    EXPECT_EQ(d.hessian, barrier.hessian) << change;
+    ASSERT_TRUE(f.friction.vertexDerivatives(f.x, v, HessianMode::Projected, d)) << change;
+    EXPECT_EQ(d.force, friction.force) << change;
+  };
+  f.barriers.prepareStep(f.x, VectorX::Zero(f.x.size()));
+  expectStaleThenFresh("prepareStep");
+  f.barriers.beginSubstep(f.frame);
+  f.friction.beginSubstep(f.frame);
+  f.barriers.prepareStep(f.x, VectorX::Zero(f.x.size()));
+  expectStaleThenFresh("beginSubstep");
+}

@@ -114,17 +114,7 @@ void ContactModel::selfCandidates(const VectorX& x, const VectorX* dx) {
                      return ea[0] != eb[0] && ea[0] != eb[1] && ea[1] != eb[0] && ea[1] != eb[1];
                    },
                    edgeEdge_);
-  pairStencils_.clear();
-  for (const auto& [p, t] : pointTriangle_) {
-    const Triangle& tri = mesh.triangles[static_cast<std::size_t>(t)];
-    pairStencils_.push_back({p, tri[0], tri[1], tri[2]});
-  }
-  for (const auto& [ia, ib] : edgeEdge_) {
-    const auto& ea = edges_[static_cast<std::size_t>(ia)];
-    const auto& eb = edges_[static_cast<std::size_t>(ib)];
-    pairStencils_.push_back({ea[0], ea[1], eb[0], eb[1]});
-  }
-  pairsOfVertex_.assign(n, pairStencils_);
+  vertexTablesFresh_ = false;
 }
 
 double ContactModel::edgeMollifierThreshold(Index ea, Index eb) const {
@@ -201,11 +191,7 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   }
   // The relative displacement of a friction contact is measured from xc.
   frictionOrigin_ = xc;
-  frictionStencils_.clear();
-  for (const Friction& f : friction_) {
-    frictionStencils_.push_back({f.vertices.data(), f.vertices.data() + f.count});
-  }
-  frictionOfVertex_.assign(mesh_->numVertices(), frictionStencils_);
+  vertexTablesFresh_ = false;
 }
 
 Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x) {
@@ -563,11 +549,35 @@ ContactModel::FrictionShare ContactModel::frictionShare(const Friction& f, const
   return out;
 }
 
+void ContactModel::prepareVertexAccess() {
+  if (vertexTablesFresh_) return;
+  const Mesh& mesh = *mesh_;
+  pairStencils_.clear();
+  for (const auto& [p, t] : pointTriangle_) {
+    const Triangle& tri = mesh.triangles[static_cast<std::size_t>(t)];
+    pairStencils_.push_back({p, tri[0], tri[1], tri[2]});
+  }
+  for (const auto& [ia, ib] : edgeEdge_) {
+    const auto& ea = edges_[static_cast<std::size_t>(ia)];
+    const auto& eb = edges_[static_cast<std::size_t>(ib)];
+    pairStencils_.push_back({ea[0], ea[1], eb[0], eb[1]});
+  }
+  pairsOfVertex_.assign(mesh.numVertices(), pairStencils_);
+  frictionStencils_.clear();
+  for (const Friction& f : friction_) {
+    frictionStencils_.push_back({f.vertices.data(), f.vertices.data() + f.count});
+  }
+  frictionOfVertex_.assign(mesh.numVertices(), frictionStencils_);
+  vertexTablesFresh_ = true;
+}
+
 bool ContactModel::vertexDerivatives(const VectorX& x, Index v, VertexDerivatives& out,
                                      Part part) const {
-  out = VertexDerivatives{};
-  if (part != Part::Friction && !addVertexBarriers(x, v, out)) return false;
-  if (part != Part::Barriers) addVertexFriction(x, v, out);
+  if (!vertexTablesFresh_) return false;
+  VertexDerivatives sum;
+  if (part != Part::Friction && !addVertexBarriers(x, v, sum)) return false;
+  if (part != Part::Barriers) addVertexFriction(x, v, sum);
+  out = sum;
   return true;
 }
 
@@ -581,7 +591,7 @@ bool ContactModel::addVertexBarriers(const VectorX& x, Index v, VertexDerivative
     out.force -= b.gradient;
     out.hessian += (b.weight * b.along) * (sd.normal * sd.normal.transpose());
   }
-  if (settings_.selfCollision && pairsOfVertex_.numVertices() > v) {
+  if (settings_.selfCollision) {
     PairBarrier b;
     double distance = 0.0;
     const auto pointTriangles = static_cast<Index>(pointTriangle_.size());
@@ -603,7 +613,6 @@ bool ContactModel::addVertexBarriers(const VectorX& x, Index v, VertexDerivative
 }
 
 void ContactModel::addVertexFriction(const VectorX& x, Index v, VertexDerivatives& out) const {
-  if (frictionOfVertex_.numVertices() <= v) return;  // before the first substep
   for (const VertexIncidence::Use& use : frictionOfVertex_.uses(v)) {
     const Friction& f = friction_[static_cast<std::size_t>(use.element)];
     const FrictionShare share = frictionShare(f, x, true);

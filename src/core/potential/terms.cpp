@@ -235,6 +235,8 @@ double BarrierTerm::prepareStep(const VectorX& x, const VectorX& dx) {
   return contact_->prepareSegment(x, dx);
 }
 
+void BarrierTerm::prepareVertexAccess() { contact_->prepareVertexAccess(); }
+
 bool BarrierTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
                                     VertexDerivatives& out) const {
   return contact_->vertexDerivatives(x, vertex, out, ContactModel::Part::Barriers);
@@ -243,6 +245,8 @@ bool BarrierTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode 
 EvalResult FrictionTerm::evaluate(const VectorX& x, const TermRequest& request) {
   return evaluateContact(*contact_, x, request, ContactModel::Part::Friction);
 }
+
+void FrictionTerm::prepareVertexAccess() { contact_->prepareVertexAccess(); }
 
 bool FrictionTerm::vertexDerivatives(const VectorX& x, Index vertex, HessianMode /*mode*/,
                                      VertexDerivatives& out) const {

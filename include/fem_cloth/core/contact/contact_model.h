@@ -87,9 +87,14 @@ class ContactModel {
   /// the barriers' Gauss-Newton part, the lagged friction's exact Hessian), from the vertex's
   /// obstacle barriers, the self-contact pairs of the last prepareSegment() and the substep's
   /// friction entries that hold it. False when one of those distances is zero or negative.
-  /// Thread-safe; its distance evaluations are not counted in checks().
+  /// Thread-safe; its distance evaluations are not counted in checks(). Needs
+  /// prepareVertexAccess() after the last change of the pairs (prepareSegment, beginSubstep):
+  /// until then false, `out` untouched.
   bool vertexDerivatives(const VectorX& x, Index vertex, VertexDerivatives& out,
                          Part part = Part::Both) const;
+  /// Builds the per-vertex tables of the current pairs and friction entries (only when they
+  /// changed since the last call): the Newton solver, which never asks, does not pay for them.
+  void prepareVertexAccess();
   /// After a converged substep at x (from x0): contacts, work, and the obstacles' wrenches.
   void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
 
@@ -180,7 +185,9 @@ class ContactModel {
   std::vector<std::pair<int, int>> pointTriangle_, edgeEdge_;
   std::vector<Friction> friction_;
   // Per vertex: its self-contact pairs (point-triangle pairs first, then edge-edge) and its
-  // friction entries, rebuilt with them, for vertexDerivatives.
+  // friction entries, for vertexDerivatives; built by prepareVertexAccess, stale once the pairs
+  // or the friction change.
+  bool vertexTablesFresh_ = false;
   VertexIncidence pairsOfVertex_, frictionOfVertex_;
   std::vector<std::array<Index, 4>> pairStencils_;
   struct Span {

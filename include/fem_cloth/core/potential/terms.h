@@ -145,7 +145,8 @@ class BarrierTerm final : public PotentialTerm {
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
   double prepareStep(const VectorX& x, const VectorX& dx) override;
   /// ContactModel::vertexDerivatives' barriers: the block of the assembled (PSD, Gauss-Newton)
-  /// Hessian in both modes, from the pairs of the last prepareStep().
+  /// Hessian in both modes, from the pairs of the last prepareStep() (prepare after each).
+  void prepareVertexAccess() override;
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                          VertexDerivatives& out) const override;
 
@@ -164,7 +165,9 @@ class FrictionTerm final : public PotentialTerm {
   TermCapabilities capabilities() const override { return {true, false, true, true}; }
   bool continuesSum() const override { return true; }
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
-  /// ContactModel::vertexDerivatives' friction (its exact Hessian block, PSD).
+  /// ContactModel::vertexDerivatives' friction (its exact Hessian block, PSD); prepare after
+  /// each beginSubstep.
+  void prepareVertexAccess() override;
   bool vertexDerivatives(const VectorX& x, Index vertex, HessianMode mode,
                          VertexDerivatives& out) const override;
 
