@@ -91,6 +91,9 @@ struct StepInput {
 struct StepReport {
   bool ok = true;
   std::string error;       ///< why the step failed (state untouched)
+  /// An accepted step that is right but not what its commands should have asked for (a pin jump,
+  /// Simulator::kPinJumpWork); empty when there is nothing to say.
+  std::string warning;
   /// False when more substeps cannot help (a step size the settings refuse, a model the
   /// integrator cannot handle): the simulator then returns the error without retrying.
   bool retryable = true;
