@@ -2,9 +2,34 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
+#include <limits>
 #include <sstream>
 
 namespace fem_cloth {
+
+BalanceJudgement judgeBalance(const EnergyReport& energies, double tolerance) {
+  BalanceJudgement j;
+  // A NaN balance is never within tolerance: it counts as unbounded.
+  j.created = std::isnan(energies.balanceError) ? std::numeric_limits<double>::infinity()
+                                                : std::max(energies.balanceError, 0.0);
+  j.scale = std::max(energies.energyScale, 1e-12);
+  j.tolerance = tolerance;
+  return j;
+}
+
+std::string BalanceJudgement::text() const {
+  std::ostringstream msg;
+  msg << std::setprecision(4) << "energy created (net) " << created << " J = " << 100.0 * fraction()
+      << " % of the energy scale " << scale << " J (at most " << 100.0 * tolerance << " % accepted)";
+  return msg.str();
+}
+
+std::string BalanceJudgement::warning() const {
+  return "energy balance out of tolerance: " + text() +
+         "; the run created energy it was not given, and its energies are not to be trusted (a "
+         "smaller dt or more integrator.substeps may help; docs/integrators.md, \"Acceptance\")";
+}
 
 Simulator::Simulator(std::shared_ptr<Model> model, std::unique_ptr<Integrator> integrator,
                      SimulatorSettings settings)
@@ -318,6 +343,34 @@ void Simulator::EnergyBook::add(const EnergyStep& step) {
   heldMost = std::max(heldMost, step.held);
 }
 
+void Simulator::flagPinJump(StepReport& r, double energyStart, double dt) {
+  const double held = energyStart + gravityForce_.dot(backup_.x);  // kinetic + elastic at the start
+  const double scale = std::max(sizeScale_, held);
+  if (!(std::abs(r.pinWork) > kPinJumpWork * scale)) return;
+  ++book_.pinJumps;
+  const int d = dim();
+  Index farthest = -1;
+  double moved = 0.0;
+  for (Index i = 0; i < model_->numVertices(); ++i) {
+    if (!pinned_[d * i]) continue;
+    const double m = (state_.x.segment(d * i, d) - backup_.x.segment(d * i, d)).norm();
+    if (farthest < 0 || m > moved) {
+      farthest = i;
+      moved = m;
+    }
+  }
+  std::ostringstream msg;
+  msg << std::setprecision(3) << "pin jump in the step at t = " << backup_.time << " s: the pins did "
+      << r.pinWork << " J of work in this one step, " << std::abs(r.pinWork) / scale
+      << " times the cloth's energy scale " << scale
+      << " J (the larger of weight x size and the energy it held); vertex " << farthest << " moved "
+      << moved << " m in " << dt << " s (" << moved / dt
+      << " m/s). The step is right for that motion (its work is booked), but it yanks the cloth: "
+         "pin a vertex where it is and move its target gradually, or pin it in place in a moving "
+         "frame (docs/node.md, Commands)";
+  r.warning = msg.str();
+}
+
 void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt) {
   book_.add(energy);
   energyNow_ = energy.end;
@@ -432,6 +485,7 @@ StepReport Simulator::step(double dt) {
       } else {
         ++cleanSteps_;
       }
+      flagPinJump(total, energyStart, dt);
       commit(total, energy, dt);
       return total;
     }
@@ -467,6 +521,7 @@ EnergyReport Simulator::energies() {
   e.numericalDissipation = book_.numerical;
   e.created = book_.created;
   e.energyScale = runEnergyScale(EnergyStep{});
+  e.pinJumps = book_.pinJumps;
   return e;
 }
 

@@ -633,9 +633,18 @@ void ClothNode::publishDiagnostics(bool force) {
   add("rejected commands", std::to_string(rejected));
   add("failed steps", std::to_string(failedSteps_));
   add("paused", control_->paused() ? "true" : "false");
+  // The run's energy balance, judged as fem_cloth_sim's summaries judge it (judgeBalance).
+  Simulator& sim = driver_->simulator();
+  const EnergyReport energies = sim.energies();
+  const BalanceJudgement balance = judgeBalance(energies, sim.settings().acceptance.runEnergyTolerance);
+  add("energy balance error (J)", std::to_string(energies.balanceError));
+  add("energy balance", balance.text());
+  add("pin jumps", std::to_string(energies.pinJumps));
+  if (!balance.ok()) status.message = balance.warning();
   status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (rejected > 0 || !lastProblem_.empty()) ? diagnostic_msgs::DiagnosticStatus::WARN
-                                                          : diagnostic_msgs::DiagnosticStatus::OK;
+                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok())
+                     ? diagnostic_msgs::DiagnosticStatus::WARN
+                     : diagnostic_msgs::DiagnosticStatus::OK;
   array.status.push_back(status);
   diagnosticsPub_.publish(array);
 }

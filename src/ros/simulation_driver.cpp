@@ -414,6 +414,7 @@ StepReport SimulationDriver::step() {
   }
   followObstacleFrames(t, t + dt);
   StepReport report = sim.step();
+  if (!report.warning.empty()) warnings_.push_back(report.warning);
   // A segment rebuilt from a recording starts here: its simulation time is known now.
   if (report.ok && timeline_.reach(stepIndex(), simulator().time())) retimePending();
   return report;

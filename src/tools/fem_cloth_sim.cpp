@@ -160,6 +160,38 @@ Json energyJson(const EnergyReport& e) {
               {"dissipated", e.dissipated},   {"balance_error", e.balanceError}};
 }
 
+// The energy balance as both summaries judge it (judgeBalance, acceptance (b) over the run), and
+// the steps flagged as pin jumps (Simulator::kPinJumpWork).
+Json balanceJson(const EnergyReport& e, const BalanceJudgement& b) {
+  return Json{{"created", b.created}, {"energy_scale", b.scale}, {"fraction", b.fraction()},
+              {"tolerance", b.tolerance}, {"ok", b.ok()}, {"pin_jumps", e.pinJumps}};
+}
+
+// "failed" (the run stopped at an error), "warning" (it ran to the end, but its energy balance is
+// out of tolerance, or pins yanked the cloth) or "ok".
+const char* runStatus(const std::string& failure, const EnergyReport& e, const BalanceJudgement& b) {
+  return !failure.empty() ? "failed" : (b.ok() && e.pinJumps == 0) ? "ok" : "warning";
+}
+
+// The summaries' balance line: the judgement, and what of the loss is the scheme's (expected);
+// and the pin jumps, if any.
+std::string balanceLine(const EnergyReport& e, const BalanceJudgement& b) {
+  std::ostringstream line;
+  line << std::setprecision(4) << "balance:      " << b.text() << "; numerical dissipation "
+       << e.numericalDissipation << " J = " << 100.0 * e.numericalDissipation / b.scale
+       << " % (the scheme's expected loss, not an error); balance error " << e.balanceError << " J\n";
+  if (e.pinJumps > 0) {
+    line << "pin jumps:    " << e.pinJumps << (e.pinJumps == 1 ? " step" : " steps")
+         << " whose pins yanked the cloth (more work in one step than its energy scale; the warnings name them)\n";
+  }
+  return line.str();
+}
+
+// One warning line on stderr when the balance is out of tolerance.
+void warnAboutBalance(const BalanceJudgement& b) {
+  if (!b.ok()) std::cerr << "fem_cloth_sim: warning: " << oneLine(b.warning()) << '\n';
+}
+
 bool writeSummaryJson(const Options& opt, const Json& summary) {
   return opt.summaryJson.empty() ||
          writeTextFile(opt.summaryJson, summary.dump(2) + "\n", {opt.scene, opt.commands, opt.out});
@@ -246,9 +278,13 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   }
   std::cout << "energy (J):   kinetic " << r.energy.kinetic << ", strain " << r.energy.strain
             << ", bending " << r.energy.bending << ", gravity " << r.energy.gravity << ", total "
-            << r.energy.total << ", balance error " << r.energy.balanceError << '\n';
+            << r.energy.total << ", work: pins " << r.energy.pinWork << ", external "
+            << r.energy.externalWork << ", dissipated by damping " << r.energy.dissipated << '\n';
+  const BalanceJudgement balance = judgeBalance(r.energy, r.runEnergyTolerance);
+  std::cout << balanceLine(r.energy, balance);
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
-  const Json summary{{"status", r.failure.empty() ? "ok" : "failed"},
+  warnAboutBalance(balance);
+  const Json summary{{"status", runStatus(r.failure, r.energy, balance)},
                      {"error", r.failure},
                      {"scene", r.scene},
                      {"integrator", r.integrator},
@@ -256,6 +292,7 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
                      {"simulated_s", r.simulated},
                      {"wall_s", r.wall},
                      {"energy", energyJson(r.energy)},
+                     {"balance", balanceJson(r.energy, balance)},
                      {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
                      {"state_hash", r.finalHash},
                      {"outputs", r.failure.empty() && !opt.out.empty() ? Json::array({opt.out}) : Json::array()}};
@@ -316,6 +353,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
                   std::uint64_t totalSteps, double wall,
                   const EdgeStretch& st, const std::string& outDir) {
   const EnergyReport e = simulator.energies();
+  const BalanceJudgement balance = judgeBalance(e, simulator.settings().acceptance.runEnergyTolerance);
   std::ostringstream summary;
   summary << std::setprecision(4);
   summary << "scene:        " << scene.name << " (" << opt.scene << "), "
@@ -353,13 +391,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
   // What is an error and what is expected (issue 11): energy the steps created, net, is the
   // error, bounded by acceptance (b) at a fraction of the run's energy scale; what the scheme
   // lost beyond the damping model is numerical dissipation, expected of the implicit schemes.
-  const double scale = std::max(e.energyScale, 1e-12);
-  const double net = e.balanceError;
-  summary << "balance:      energy created (net) " << std::max(net, 0.0) << " J = "
-          << 100.0 * std::max(net, 0.0) / scale << " % of the energy scale " << scale << " J (at most "
-          << 100.0 * simulator.settings().acceptance.runEnergyTolerance << " % accepted); numerical dissipation "
-          << e.numericalDissipation << " J = " << 100.0 * e.numericalDissipation / scale
-          << " % (the scheme's expected loss, not an error); balance error " << net << " J\n";
+  summary << balanceLine(e, balance);
   summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
           << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
   summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
@@ -382,6 +414,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
   }
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
+  warnAboutBalance(balance);
 }
 
 // Watches a run after every step: the smallest area ratio and the largest stretch so far, and on
@@ -431,6 +464,7 @@ Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps,
       out.failure = r.error;
       break;
     }
+    if (!r.warning.empty()) std::cerr << "fem_cloth_sim: warning: " << oneLine(r.warning) << '\n';
     totals.addStep(r);
     observe((k + 1) % static_cast<std::uint64_t>(every) == 0 || k + 1 == totalSteps);
     progress.update(simulator.time(), totals.steps);
@@ -443,7 +477,9 @@ Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps,
 // The summary of a scene run for --summary-json.
 Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals, std::uint64_t totalSteps,
                   const Stepped& stepped, const EdgeStretch& st, const Json& files) {
-  return Json{{"status", stepped.failure.empty() ? "ok" : "failed"},
+  const EnergyReport e = simulator.energies();
+  const BalanceJudgement balance = judgeBalance(e, simulator.settings().acceptance.runEnergyTolerance);
+  return Json{{"status", runStatus(stepped.failure, e, balance)},
               {"error", stepped.failure},
               {"scene", scene.name},
               {"integrator", simulator.integrator().name()},
@@ -451,7 +487,8 @@ Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals
               {"total_steps", totalSteps},
               {"simulated_s", simulator.time()},
               {"wall_s", stepped.wall},
-              {"energy", energyJson(simulator.energies())},
+              {"energy", energyJson(e)},
+              {"balance", balanceJson(e, balance)},
               {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
               {"min_area_ratio", totals.minAreaRatio},
               {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
@@ -605,8 +642,10 @@ int run(int argc, char** argv) {
                "validate the scene with its overrides (parse and build it), print one line and "
                "exit without running: 0 valid, 2 not");
   app.add_option("--summary-json", opt.summaryJson,
-                 "also write the summary as JSON to this file (energies, stretch, final state "
-                 "hash; on a failed run the state reached and the error)");
+                 "also write the summary as JSON to this file (status ok, warning or failed; "
+                 "energies, the energy balance as judged, stretch, final state hash; on a failed "
+                 "run the state reached and the error). warning: the run ended, but its energy "
+                 "balance is out of tolerance or pins jumped (the exit status is still 0)");
   app.add_option("--write-scene", opt.writeScene,
                  "write the scene with the --set overrides applied to this YAML file (runs "
                  "again with --scene FILE alone)");

@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iomanip>
 #include <iostream>
+#include <sstream>
 
 #include "test_support.h"
 
@@ -368,6 +370,113 @@ TEST(EnergyBalance, ExternalWorkIsForceTimesDisplacement) {
       EXPECT_LT(std::abs(e.balanceError), 0.01 * work);
     }
   }
+}
+
+// A pin jump's work, by hand: a 3 x 3 sheet (1 kg/m^2, 0.5 m: M = 0.25 kg) without gravity, every
+// vertex pinned and the targets moved rigidly by d = 0.1 m in one step of dt = 0.01 s. Nothing
+// strains; the vertices move at d / dt = 10 m/s: the pins did M (d/dt)^2 / 2 = 12.5 J, all of it
+// kinetic. Held the next step, they stop: the pins took the 12.5 J back (work 0 in total), and
+// the balance is exact. (Force times displacement booked 25 J, twice the kinetic energy, and
+// then nothing for the stop: a balance error of -25 J.)
+TEST(EnergyBalance, APinJumpBooksTheKineticEnergyItGivesAndTakesBack) {
+  for (const std::string integrator : {"symplectic_euler", "backward_euler"}) {
+    Scene scene = gridScene(3, 3, 0.5, integrator, 1000.0);
+    scene.gravity = Eigen::Vector3d::Zero();
+    Simulation sim = mustBuild(scene);
+    Simulator& s = *sim.simulator;
+    const double M = s.model().totalMass();
+    ASSERT_NEAR(M, 0.25, 1e-12);
+    const Eigen::Vector3d d(0.0, 0.06, 0.08);  // 0.1 m
+    for (Index i = 0; i < s.model().numVertices(); ++i) {
+      ASSERT_TRUE(s.pin(i, vertexPosition(s, i) + d).ok());
+    }
+    ASSERT_EQ(run(sim, 1), "") << integrator;
+    const double expected = 0.5 * M * (0.1 / 0.01) * (0.1 / 0.01);  // 12.5 J
+    EnergyReport e = s.energies();
+    EXPECT_NEAR(e.pinWork, expected, 1e-9 * expected) << integrator;
+    EXPECT_NEAR(e.kinetic, expected, 1e-9 * expected) << integrator;
+    EXPECT_NEAR(e.balanceError, 0.0, 1e-9 * expected) << integrator;
+    ASSERT_EQ(run(sim, 1), "") << integrator;
+    e = s.energies();
+    EXPECT_NEAR(e.pinWork, 0.0, 1e-9 * expected) << integrator;
+    EXPECT_NEAR(e.kinetic, 0.0, 1e-9 * expected) << integrator;
+    EXPECT_NEAR(e.balanceError, 0.0, 1e-9 * expected) << integrator;
+  }
+}
+
+// A pin jump is accepted but flagged (Simulator::kPinJumpWork): the sheet above, its energy
+// scale weight x size = 9.81 m/s^2 x 0.25 kg x 0.5 sqrt(2) m = 1.734 J (no gravity: the reference
+// acceleration is still 9.81). Moved 0.1 m in one step the pins do 12.5 J, 7.21 times the scale:
+// flagged, naming the work, the ratio and the speed (10 m/s). Moved 1 cm in one step (0.125 J),
+// or the same 0.1 m at 1 m/s over ten steps (0.125 J in the first, none after), it is not.
+TEST(EnergyBalance, APinJumpIsAcceptedButFlagged) {
+  auto sheet = [] {
+    Scene scene = gridScene(3, 3, 0.5, "symplectic_euler", 1000.0);
+    scene.gravity = Eigen::Vector3d::Zero();
+    return mustBuild(scene);
+  };
+  auto pinAll = [](Simulator& s, const Eigen::Vector3d& jump, const Eigen::Vector3d& velocity) {
+    for (Index i = 0; i < s.model().numVertices(); ++i) {
+      ASSERT_TRUE(s.pin(i, vertexPosition(s, i) + jump, velocity).ok());
+    }
+  };
+  const double scale = kG * 0.25 * 0.5 * std::sqrt(2.0);
+  {
+    Simulation sim = sheet();
+    pinAll(*sim.simulator, Eigen::Vector3d(0.0, 0.0, 0.1), Eigen::Vector3d::Zero());
+    const StepReport r = sim.simulator->step();
+    ASSERT_TRUE(r.ok) << r.error;
+    EXPECT_NEAR(r.pinWork, 12.5, 1e-9);
+    EXPECT_EQ(sim.simulator->energies().pinJumps, 1);
+    std::ostringstream ratio;
+    ratio << std::setprecision(3) << 12.5 / scale << " times the cloth's energy scale " << scale << " J";
+    EXPECT_NE(r.warning.find("pin jump in the step at t = 0 s: the pins did 12.5 J of work in this one step, " +
+                             ratio.str()), std::string::npos) << r.warning;
+    EXPECT_NE(r.warning.find("moved 0.1 m in 0.01 s (10 m/s)"), std::string::npos) << r.warning;
+    EXPECT_EQ(sim.simulator->lastReport().warning, r.warning);
+  }
+  {
+    Simulation sim = sheet();
+    pinAll(*sim.simulator, Eigen::Vector3d(0.0, 0.0, 0.01), Eigen::Vector3d::Zero());
+    const StepReport r = sim.simulator->step();
+    ASSERT_TRUE(r.ok) << r.error;
+    EXPECT_NEAR(r.pinWork, 0.125, 1e-11);
+    EXPECT_EQ(r.warning, "");
+  }
+  {
+    Simulation sim = sheet();
+    pinAll(*sim.simulator, Eigen::Vector3d::Zero(), Eigen::Vector3d(0.0, 0.0, 1.0));
+    ASSERT_EQ(run(sim, 10, [](int k, const StepReport& r) { EXPECT_EQ(r.warning, "") << "step " << k; }), "");
+    EXPECT_NEAR(sim.simulator->energies().pinWork, 0.125, 1e-11);
+    EXPECT_EQ(sim.simulator->energies().pinJumps, 0);
+  }
+}
+
+// The judgement every summary gives of a run's balance (judgeBalance): the net energy created,
+// the balance error when positive, against the tolerance times the run's energy scale. By hand:
+// 3 J of 50 J is 6 %, above 5 %; 2 J is 4 %, within; a net loss (numerical dissipation) creates
+// nothing; NaN is never within.
+TEST(EnergyBalance, TheRunsBalanceIsJudgedAgainstItsEnergyScale) {
+  EnergyReport e;
+  e.energyScale = 50.0;
+  e.balanceError = 3.0;
+  BalanceJudgement j = judgeBalance(e, 0.05);
+  EXPECT_DOUBLE_EQ(j.created, 3.0);
+  EXPECT_DOUBLE_EQ(j.scale, 50.0);
+  EXPECT_DOUBLE_EQ(j.fraction(), 0.06);
+  EXPECT_FALSE(j.ok());
+  EXPECT_EQ(j.text(), "energy created (net) 3 J = 6 % of the energy scale 50 J (at most 5 % accepted)");
+  EXPECT_NE(j.warning().find("energy balance out of tolerance: energy created (net) 3 J"), std::string::npos)
+      << j.warning();
+  e.balanceError = 2.0;
+  EXPECT_TRUE(judgeBalance(e, 0.05).ok());
+  EXPECT_DOUBLE_EQ(judgeBalance(e, 0.05).fraction(), 0.04);
+  e.balanceError = -1.0;
+  j = judgeBalance(e, 0.05);
+  EXPECT_EQ(j.created, 0.0);
+  EXPECT_TRUE(j.ok());
+  e.balanceError = std::nan("");
+  EXPECT_FALSE(judgeBalance(e, 0.05).ok());
 }
 
 // ---------------------------------------------------------------------------------------------

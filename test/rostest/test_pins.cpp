@@ -1,5 +1,7 @@
 // Pins: a pin holds a vertex exactly at its target, and a pin in a frame moved by a tf
-// broadcaster follows that frame.
+// broadcaster follows that frame; a pin that jumps is taken but flagged on /diagnostics, which
+// also reports the run's energy balance.
+#include <diagnostic_msgs/DiagnosticArray.h>
 #include <tf2/LinearMath/Vector3.h>
 #include <tf2_msgs/TFMessage.h>
 
@@ -85,6 +87,46 @@ TEST(Pins, FollowsAFrameMovedByTf) {
   ASSERT_EQ(checked, 20) << "the pinned vertex never followed the gripper";
   // Exact up to tf's float-to-double round trips.
   EXPECT_LT(worst, 1e-6);
+}
+
+// A target 0.3 m above a vertex moves it there within one step (30 m/s): the pins do far more
+// work in it than the cloth's energy scale (weight x size, 9.81 x 1 kg x 1.41 m = 13.9 J). The
+// step is taken, the vertex is there, and /diagnostics goes WARN and counts the pin jump, and
+// carries the run's energy balance as fem_cloth_sim judges it.
+TEST(Pins, AJumpIsTakenButFlaggedOnDiagnostics) {
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<fem_cloth::PinCommand>(topic("pin"), 10);
+  ASSERT_TRUE(waitForConnection(pub));
+  Latest<fem_cloth::ClothState> state(topic("state"));
+  auto now = state.waitForNext();
+  ASSERT_TRUE(now);
+  Latest<diagnostic_msgs::DiagnosticArray> diagnostics("/diagnostics");
+  ASSERT_TRUE(diagnostics.waitConnected());
+  const geometry_msgs::Point at = now->positions[30];
+  pub.publish(pinAt("world", {30}, {point(at.x, at.y, at.z + 0.3)}));
+  auto value = [](const diagnostic_msgs::DiagnosticStatus& s, const std::string& key) {
+    for (const auto& kv : s.values) {
+      if (kv.key == key) return kv.value;
+    }
+    return std::string();
+  };
+  auto flagged = diagnostics.waitFor([&](const diagnostic_msgs::DiagnosticArray& a) {
+    for (const auto& s : a.status) {
+      // The count, not the message: a later warning (the frame of the test before stopping)
+      // may replace the message.
+      if (s.level >= diagnostic_msgs::DiagnosticStatus::WARN && value(s, "pin jumps") != "0" &&
+          !value(s, "pin jumps").empty()) {
+        return true;
+      }
+    }
+    return false;
+  }, 30.0);
+  ASSERT_TRUE(flagged) << "no pin jump on /diagnostics";
+  const diagnostic_msgs::DiagnosticStatus& s = flagged->status.front();
+  EXPECT_NE(value(s, "energy balance").find("% of the energy scale"), std::string::npos) << value(s, "energy balance");
+  EXPECT_FALSE(value(s, "energy balance error (J)").empty());
+  auto there = state.waitFor([&](const fem_cloth::ClothState& c) { return c.positions[30].z == at.z + 0.3; });
+  EXPECT_TRUE(there) << "the jump was not taken";
 }
 
 int main(int argc, char** argv) {

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <regex>
 
 #include "../run_program.h"
@@ -100,6 +101,35 @@ TEST(FemClothSimBags, WritesAndVerifiesARun) {
            "symplectic_euler", "--verify", "-q"});
   EXPECT_EQ(r.status, 4) << r.out << r.err;
   EXPECT_NE(r.err.find("recorded states were not reproduced"), std::string::npos) << r.err;
+}
+
+// The line of a summary that starts with `label`.
+std::string lineOf(const std::string& out, const std::string& label) {
+  const std::size_t at = out.find(label);
+  return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+}
+
+// A replay judges its energy balance as a scene run does (one judgement, judgeBalance): the
+// re-simulation is the recorded run bit for bit, so its balance line is the scene run's to the
+// digit, and the JSON summary carries the judgement and an "ok" status.
+TEST(FemClothSimBags, AReplayJudgesItsBalanceAsTheSceneRunDoes) {
+  const std::string run = scratch().path("balance.bag"), json = scratch().path("balance.json");
+  ASSERT_EQ(sim({"--scene", kScene, "--duration", "0.3", "--out", run, "-q"}).status, 0);
+  const ProgramResult scene = sim({"--scene", kScene, "--duration", "0.3", "--no-output", "-q"});
+  ASSERT_EQ(scene.status, 0) << scene.err;
+  const ProgramResult replay = sim({"--commands", run, "--verify", "-q", "--summary-json", json});
+  ASSERT_EQ(replay.status, 0) << replay.err;
+  const std::string line = lineOf(scene.out, "balance:      energy created (net) ");
+  ASSERT_FALSE(line.empty()) << scene.out;
+  EXPECT_NE(line.find("(at most 5 % accepted)"), std::string::npos) << line;
+  EXPECT_EQ(lineOf(replay.out, "balance:      "), line) << replay.out;
+  EXPECT_EQ(replay.err.find("energy balance out of tolerance"), std::string::npos) << replay.err;
+  std::ifstream in(json);
+  const std::string summary((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(summary.find("\"status\": \"ok\""), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"balance\": {"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"tolerance\": 0.05"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"ok\": true"), std::string::npos) << summary;
 }
 
 // --verify needs no --out (issue 15, item 6): it compares and writes nothing.

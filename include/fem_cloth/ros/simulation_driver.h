@@ -96,14 +96,15 @@ class SimulationDriver {
   /// the end of the step, and advances one step. Commands that fail when applied are reported
   /// through takeWarnings() (and counted as rejected). Pins whose frame has gone stale (its newest
   /// transform older than tf_timeout) or jumps farther than maxPinJump stop following it and stay
-  /// where they are, with a warning. The step itself fails as Simulator::step does, or when its
-  /// end would map to no ROS time.
+  /// where they are, with a warning. A step the simulator flags (a pin jump, StepReport::warning)
+  /// is a warning too. The step itself fails as Simulator::step does, or when its end would map
+  /// to no ROS time.
   StepReport step();
   /// Back to the initial state; pending commands (counted as discarded) and frame-following pins
   /// are dropped, and the timeline keeps its first segment only.
   void reset();
   /// Problems met while stepping (a frame no longer available, a command that could not be
-  /// applied), since the last call.
+  /// applied, a pin jump), since the last call.
   std::vector<std::string> takeWarnings();
   /// The commands applied since the last call, in the order they took effect, each stamped with
   /// the simulation time (as ROS time) of the step before which it took effect: replaying

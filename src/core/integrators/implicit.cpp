@@ -252,10 +252,16 @@ void ImplicitIntegrator::commit(State& state, double h, VectorX& pinForce, StepR
   const VectorX& x = iterate_.x;
   const VectorX& g = iterate_.gradient;
   const double c2 = potential_.c2();
+  // A backward Euler substep books the pins' kinetic energy exactly (pinWorkInSubstep); BDF2's
+  // velocity is not dx / h, so its pins' work stays force times displacement.
   VectorX vNew = potential_.gamma() * (x - potential_.xc());
+  const VectorX& mass = potential_.mass();
+  const bool backwardEuler = !potential_.isBdf2();
   for (Index i = 0; i < x.size(); ++i) {
     pinForce[i] = pinned[i] ? g[i] / c2 : 0.0;
-    if (pinned[i]) report.pinWork += pinForce[i] * (x[i] - state.x[i]);
+    if (!pinned[i]) continue;
+    report.pinWork += backwardEuler ? pinWorkInSubstep(pinForce[i], x[i] - state.x[i], mass[i], state.v[i], vNew[i])
+                                    : pinForce[i] * (x[i] - state.x[i]);
   }
   if (massDamped_) report.dissipated += massDamping_.dissipated(vNew, h);
   if (stiffnessDamped_) report.dissipated += stiffnessDamping_.dissipated(vNew, h);

@@ -176,10 +176,12 @@ StepReport SymplecticEuler::step(const StepInput& input, State& state, double dt
     for (Index i = 0; i < n; ++i) {
       if (pinned[i]) {
         // Along the pin's path to its end-of-step target; the pin supplies what makes the vertex
-        // follow it, m dv/h - f, and does that work along the substep's displacement.
+        // follow it, m dv/h - f, and does that work along the substep's displacement (the
+        // kinetic energy booked exactly: pinWorkInSubstep).
         const double xNew = pinAfterSubstep(state.x[i], target[i], substeps - s);
         state.v[i] = (xNew - state.x[i]) / h;
-        report.pinWork += (mass[i] * (state.v[i] - velocityStart_[i]) / h - force_[i]) * (xNew - state.x[i]);
+        report.pinWork += pinWorkInSubstep(mass[i] * (state.v[i] - velocityStart_[i]) / h - force_[i],
+                                           xNew - state.x[i], mass[i], velocityStart_[i], state.v[i]);
         state.x[i] = xNew;
       } else {
         state.v[i] = (state.v[i] + h * force_[i] / mass[i]) / (1.0 + h * alpha);

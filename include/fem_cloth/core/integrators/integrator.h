@@ -95,6 +95,9 @@ struct StepInput {
 struct StepReport {
   bool ok = true;
   std::string error;       ///< why the step failed (state untouched)
+  /// An accepted step that is right but not what its commands should have asked for (a pin jump,
+  /// Simulator::kPinJumpWork); empty when there is nothing to say.
+  std::string warning;
   /// False when more substeps cannot help (a step size the settings refuse, a model the
   /// integrator cannot handle): the simulator then returns the error without retrying.
   bool retryable = true;
@@ -109,7 +112,9 @@ struct StepReport {
   int iterations = 0;  ///< local solver iterations (XPBD sweeps, projective dynamics iterations)
   double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
   /// Work of the pins on the cloth in this step (J): each substep's pin force (the one its
-  /// equations of motion hold at their end) times the pins' displacement in it.
+  /// equations of motion hold at their end) times the pins' displacement in it; symplectic and
+  /// backward Euler book the pinned vertices' kinetic energy exactly (step_common.h,
+  /// pinWorkInSubstep), so that a pin that starts or stops at once is balanced too.
   double pinWork = 0.0;
   double dtUsed = 0.0;      ///< the (sub)step size of the last successful attempt (s)
   int contacts = 0;         ///< contacts at the end of the step (closer than the contact distance)

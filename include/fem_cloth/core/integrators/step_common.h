@@ -17,6 +17,19 @@ inline double pinAfterSubstep(double x, double target, int remaining) {
   return x + (target - x) / remaining;
 }
 
+/// The work a pin does on its DOF in a substep that moves it by dx and changes its velocity from
+/// vStart to vEnd = dx / h (symplectic Euler, backward Euler), when the DOF's equation of motion
+/// holds the pin force f = m (vEnd - vStart) / h - (the other forces). f dx books m dv vEnd for
+/// the inertia, the kinetic energy changes by m dv (vStart + vEnd) / 2: f dx overstates it by
+/// m dv^2 / 2, which is negligible while the pin moves smoothly but is all of it when the pin
+/// starts or stops at once (a target far from its vertex: twice the kinetic energy the jump gave,
+/// and nothing for the one it took away when the pin stopped). The work-energy theorem for the
+/// pinned DOF books the kinetic energy exactly: f dx - m dv^2 / 2.
+inline double pinWorkInSubstep(double force, double dx, double mass, double vStart, double vEnd) {
+  const double dv = vEnd - vStart;
+  return force * dx - 0.5 * mass * dv * dv;
+}
+
 /// The energy mass-proportional damping -alpha M v removes in a substep of size h ending at
 /// velocity v: its dissipation rate alpha v^T M v times h (J).
 inline double massDampingDissipation(double h, double alpha, const VectorX& v, const VectorX& mass) {
