@@ -310,7 +310,7 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
   const double elastic = end.energy;
   energy.start = energyStart;
   energy.end = kinetic + elastic - gravityForce_.dot(state_.x);
-  energy.held = std::max(energyStart + gravityForce_.dot(backup_.x), kinetic + elastic);
+  energy.held = std::max(heldAtStart(energyStart), kinetic + elastic);
   energy.externalWork = externalForce_.dot(state_.x - backup_.x);
   energy.pinWork = r.pinWork;
   energy.contactWork = r.contactWork;
@@ -344,8 +344,7 @@ void Simulator::EnergyBook::add(const EnergyStep& step) {
 }
 
 void Simulator::flagPinJump(StepReport& r, double energyStart, double dt) {
-  const double held = energyStart + gravityForce_.dot(backup_.x);  // kinetic + elastic at the start
-  const double scale = std::max(sizeScale_, held);
+  const double scale = std::max(sizeScale_, heldAtStart(energyStart));
   if (!(std::abs(r.pinWork) > kPinJumpWork * scale)) return;
   ++book_.pinJumps;
   const int d = dim();

@@ -308,7 +308,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   report.simulated = driver.simulator().time();
   report.finalHash = stateHash(driver.simulator().state().x, driver.simulator().state().v);
   report.energy = driver.simulator().energies();
-  report.runEnergyTolerance = driver.simulator().settings().acceptance.runEnergyTolerance;
+  report.balance = driver.simulator().balance(report.energy);
   report.stretch = EdgeStretchMeter(driver.simulator().model().mesh()).measure(driver.simulator().state().x);
   if (report.failure.empty()) FEM_CLOTH_CHECK(out.close());
   return report;

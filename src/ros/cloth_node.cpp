@@ -636,7 +636,7 @@ void ClothNode::publishDiagnostics(bool force) {
   // The run's energy balance, judged as fem_cloth_sim's summaries judge it (judgeBalance).
   Simulator& sim = driver_->simulator();
   const EnergyReport energies = sim.energies();
-  const BalanceJudgement balance = judgeBalance(energies, sim.settings().acceptance.runEnergyTolerance);
+  const BalanceJudgement balance = sim.balance(energies);
   add("energy balance error (J)", std::to_string(energies.balanceError));
   add("energy balance", balance.text());
   add("pin jumps", std::to_string(energies.pinJumps));

@@ -280,7 +280,7 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
             << ", bending " << r.energy.bending << ", gravity " << r.energy.gravity << ", total "
             << r.energy.total << ", work: pins " << r.energy.pinWork << ", external "
             << r.energy.externalWork << ", dissipated by damping " << r.energy.dissipated << '\n';
-  const BalanceJudgement balance = judgeBalance(r.energy, r.runEnergyTolerance);
+  const BalanceJudgement& balance = r.balance;
   std::cout << balanceLine(r.energy, balance);
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
   warnAboutBalance(balance);
@@ -353,7 +353,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
                   std::uint64_t totalSteps, double wall,
                   const EdgeStretch& st, const std::string& outDir) {
   const EnergyReport e = simulator.energies();
-  const BalanceJudgement balance = judgeBalance(e, simulator.settings().acceptance.runEnergyTolerance);
+  const BalanceJudgement balance = simulator.balance(e);
   std::ostringstream summary;
   summary << std::setprecision(4);
   summary << "scene:        " << scene.name << " (" << opt.scene << "), "
@@ -478,7 +478,7 @@ Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps,
 Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals, std::uint64_t totalSteps,
                   const Stepped& stepped, const EdgeStretch& st, const Json& files) {
   const EnergyReport e = simulator.energies();
-  const BalanceJudgement balance = judgeBalance(e, simulator.settings().acceptance.runEnergyTolerance);
+  const BalanceJudgement balance = simulator.balance(e);
   return Json{{"status", runStatus(stepped.failure, e, balance)},
               {"error", stepped.failure},
               {"scene", scene.name},

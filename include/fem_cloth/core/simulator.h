@@ -169,6 +169,11 @@ class Simulator {
   // --- Outputs --------------------------------------------------------------------------------
   /// Evaluates the elastic energies now (one energy evaluation).
   EnergyReport energies();
+  /// The run's balance in `e` (energies()) judged against this simulator's run tolerance
+  /// (AcceptanceSettings::runEnergyTolerance).
+  BalanceJudgement balance(const EnergyReport& e) const {
+    return judgeBalance(e, settings_.acceptance.runEnergyTolerance);
+  }
   /// Force the cloth exerts on each pinned DOF (N; zero on free DOFs): minus the force the pins
   /// apply, from the last step.
   VectorX pinReactions() const { return -pinForce_; }
@@ -197,6 +202,8 @@ class Simulator {
   Status accept(const StepReport& r, double energyStart, EnergyStep& energy);
   /// A step whose attempts all failed: the report says why; pins and energy as before it.
   StepReport failed(StepReport total, int substeps, const std::string& firstError, double energyStart);
+  /// Kinetic + elastic energy at the start of the step being taken (energyStart is mechanical).
+  double heldAtStart(double energyStart) const { return energyStart + gravityForce_.dot(backup_.x); }
   /// Flags an accepted step as a pin jump (kPinJumpWork) in r.warning, before it is committed.
   void flagPinJump(StepReport& r, double energyStart, double dt);
   /// Books an accepted step (energy account, pins, time).

@@ -44,8 +44,7 @@ struct BagRunReport {
   std::uint64_t firstMismatch = 0;  ///< step of the first differing state (if any)
   std::string finalHash;
   EnergyReport energy;
-  /// What the run's balance is judged against (AcceptanceSettings::runEnergyTolerance).
-  double runEnergyTolerance = 0.0;
+  BalanceJudgement balance;  ///< of `energy` (Simulator::balance)
   EdgeStretch stretch;  ///< of the final state
   std::vector<std::string> warnings;
   /// Why the simulation failed (a step that could not be taken), empty when it ran to the end.
