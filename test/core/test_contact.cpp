@@ -11,6 +11,7 @@
 #include <cmath>
 #include <iostream>
 
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "test_support.h"
 
@@ -332,6 +333,45 @@ TEST(SelfContact, FoldedClothNeverIntersectsItself) {
               << "checked: " << worst << " intersections; lowest vertex " << lowest
               << " m; far edge at y <= " << farY << " m, z >= " << farZ << " m; smallest contact distance "
               << s.lastReport().minContactDistance << " m\n";
+  }
+}
+
+
+// The first Newton iterate of a substep (ContactModel::startingPoint): a 4 cm sheet held 1 mm
+// from each of two pads that rise together by v h = 0.3 m/s x 0.01 s = 3 mm in the substep, its
+// vertices rising with them at v, starts every vertex 3 mm higher: carried once, by one pad. (Two
+// carries, one per pad, or a carry plus the vertex's own motion h v, put it 3 mm into the upper
+// pad's 1 mm gap: inside, or deep in its barrier, where Newton spent many iterations climbing
+// out.)
+TEST(ContactStartingPoint, SheetBetweenRisingPadsMovesWithThemOnce) {
+  Scene scene = gridScene(3, 3, 0.04, "backward_euler");
+  Simulation sim = mustBuild(scene);
+  const Eigen::Vector3d velocity(0.0, 0.0, 0.3);  // m/s
+  const double h = 0.01;                          // s
+  auto pad = [&](const std::string& name, double z) {
+    Obstacle o;
+    o.name = name;
+    o.shape.type = ShapeType::Box;
+    o.shape.halfExtents = Eigen::Vector3d(0.1, 0.1, 0.01);
+    o.geometry.translation() = Eigen::Vector3d(0.02, 0.02, z);
+    o.velocity = velocity;
+    return o;
+  };
+  ContactSettings settings;
+  settings.distance = 2e-3;
+  // Lower pad's top at z = -1 mm, upper pad's bottom at +1 mm.
+  ContactModel contact(*sim.model, {pad("lower", -0.011), pad("upper", 0.011)}, settings, 9.81);
+  contact.obstacles().beginStep(0.0, h);
+  const VectorX x0 = sim.mesh->restPositions;
+  const std::vector<char> pinned(static_cast<std::size_t>(x0.size()), 0);
+  contact.beginSubstep(x0, x0, 1.0 / h, h, pinned, 0.0, 1.0);
+  VectorX wanted = x0, x;
+  for (Index i = 0; i < sim.mesh->numVertices(); ++i) wanted.segment<3>(3 * i) += h * velocity;
+  const Status s = contact.startingPoint(x0, wanted, x);
+  ASSERT_TRUE(s.ok()) << s.error();
+  for (Index i = 0; i < sim.mesh->numVertices(); ++i) {
+    EXPECT_NEAR(x[3 * i + 2] - x0[3 * i + 2], 3e-3, 1e-12) << "vertex " << i;
+    EXPECT_NEAR((x - x0).segment<2>(3 * i).norm(), 0.0, 1e-12) << "vertex " << i;
   }
 }
 

@@ -194,27 +194,58 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   vertexTablesFresh_ = false;
 }
 
-Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x) {
-  const double dHat = settings_.distance;
-  const Index n = mesh_->numVertices();
-  x = x0;
+std::size_t ContactModel::carryingObstacle(const Eigen::Vector3d& p) {
   ObstacleSet& obstacles = *obstacles_;
+  const double dHat = settings_.distance;
+  // The smallest distance to any obstacle at the end of the substep if p moves to q.
+  auto clearance = [&](const Eigen::Vector3d& q) {
+    double smallest = kInf;
+    for (std::size_t k = 0; k < obstacles.size(); ++k) smallest = std::min(smallest, obstacles.distance(k, q, true).distance);
+    return smallest;
+  };
+  std::size_t best = obstacles.size();
+  double bestClearance = -kInf;
+  bool reached = false;
   for (std::size_t k = 0; k < obstacles.size(); ++k) {
     const Eigen::Isometry3d &start = obstacles.poseStart(k), &end = obstacles.poseEnd(k);
     if (start.matrix() == end.matrix()) continue;
-    const Eigen::Isometry3d carry = end * obstacles.inverseStart(k);
+    // In the obstacle's frame the vertex moves along inverse(pose(t)) p: its speed is at most
+    // |shift| + angle |p - centre| (centre anywhere on the way).
+    auto distanceAt = [&](double t) {
+      return obstacles.shapeDistance(k, interpolatePose(start, end, t).inverse() * p).distance;
+    };
     const Eigen::Vector3d shift = end.translation() - start.translation();
     const double angle = Eigen::AngleAxisd(start.linear().transpose() * end.linear()).angle();
-    for (Index i = 0; i < n; ++i) {
-      if (!isFree(i)) continue;
-      const Eigen::Vector3d p = vertex(x, i);
-      // In the obstacle's frame the vertex moves along inverse(pose(t)) p: its speed is at most
-      // |shift| + angle |p - centre| (centre anywhere on the way).
-      auto distanceAt = [&](double t) {
-        return obstacles.shapeDistance(k, interpolatePose(start, end, t).inverse() * p).distance;
-      };
-      const double lp = shift.norm() + angle * ((p - start.translation()).norm() + shift.norm());
-      if (ccd::comesWithin(distanceAt, distanceAt(0.0), lp, dHat)) x.segment<3>(3 * i) = carry * p;
+    const double lp = shift.norm() + angle * ((p - start.translation()).norm() + shift.norm());
+    if (!ccd::comesWithin(distanceAt, distanceAt(0.0), lp, dHat)) continue;
+    if (!reached) {
+      reached = true;
+      bestClearance = clearance(p);  // staying where it is
+    }
+    const double c = clearance(end * (obstacles.inverseStart(k) * p));
+    if (c > bestClearance) {
+      best = k;
+      bestClearance = c;
+    }
+  }
+  return best;
+}
+
+Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x) {
+  const Index n = mesh_->numVertices();
+  x = x0;
+  // Each free vertex that a moving obstacle comes to within dHat of moves with one of them
+  // (rigidly, which keeps its distance), once: between two fingers that move together it is
+  // carried by one, not by both in turn (which put it the fingers' displacement too close to
+  // the second and made Newton climb back out of its barrier: 3-5 times the iterations of a
+  // pinch-lift substep).
+  carried_.assign(static_cast<std::size_t>(n), 0);
+  for (Index i = 0; i < n; ++i) {
+    if (!isFree(i)) continue;
+    const std::size_t k = carryingObstacle(vertex(x0, i));
+    if (k < obstacles_->size()) {
+      x.segment<3>(3 * i) = obstacles_->poseEnd(k) * (obstacles_->inverseStart(k) * vertex(x0, i));
+      carried_[static_cast<std::size_t>(i)] = 1;
     }
   }
   for (Index i = 0; i < n; ++i) {
@@ -231,10 +262,16 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
   if (settings_.selfCollision && x != x0 && prepareSegment(x0, x - x0, false) < 1.0) {
     return Error{"an obstacle's motion in this step would pass the cloth through itself"};
   }
-  // Everything at once: pins to their targets, free vertices by their own wanted motion.
+  // Everything at once: pins to their targets, free vertices by their own wanted motion, except
+  // those an obstacle carries: they have moved with it already (their own velocity, about the
+  // obstacle's, on top of the carry put a pinched vertex h |v| into the pad's barrier).
   VectorX step(x.size());
   for (Eigen::Index d = 0; d < x.size(); ++d) {
-    step[d] = (*pinned_)[d] ? wanted[d] - x[d] : wanted[d] - x0[d];
+    if ((*pinned_)[d]) {
+      step[d] = wanted[d] - x[d];
+    } else {
+      step[d] = carried_[static_cast<std::size_t>(d / 3)] ? 0.0 : wanted[d] - x0[d];
+    }
   }
   if (prepareSegment(x, step) >= 1.0) {
     x += step;

@@ -60,12 +60,13 @@ class ContactModel {
   void beginSubstep(const VectorX& x0, const VectorX& xc, double gamma, double h,
                     const std::vector<char>& pinned, double f0, double f1);
   /// The first Newton iterate of a substep from positions x0: pinned vertices at their targets in
-  /// `wanted`, free vertices as close to theirs as is safe. Free vertices that a moving obstacle
-  /// comes to within dHat of are first carried along with it (rigidly, which keeps their
-  /// distance); then everything moves to `wanted` if continuous collision detection finds the
-  /// way free, else the pins first and the free vertices as far as they safely can. Fails,
-  /// naming the vertex, when a vertex would still end inside an obstacle, or when the pins'
-  /// motion alone would pass the cloth through itself (more substeps may help).
+  /// `wanted`, free vertices as close to theirs as is safe. A free vertex that a moving obstacle
+  /// comes to within dHat of moves with one of them (rigidly, which keeps its distance; once,
+  /// however many come near: carryingObstacle()) instead of to `wanted`; then the others move to
+  /// `wanted` if continuous collision detection finds the way free, else the pins first and the
+  /// free vertices as far as they safely can. Fails, naming the vertex, when a vertex would still
+  /// end inside an obstacle, or when the pins' motion alone would pass the cloth through itself
+  /// (more substeps may help).
   Status startingPoint(const VectorX& x0, const VectorX& wanted, VectorX& x);
   /// Broad phase for the positions x + t dx, t in [0, 1] (dx may be zero), kept for the
   /// evaluations that follow, and the largest t that additive CCD finds collision-free
@@ -135,6 +136,10 @@ class ContactModel {
                             PairBarrier& out, double& distance) const;
   bool edgeEdgeBarrier(const VectorX& x, int ia, int ib, bool wantGradient, bool wantHessian,
                        PairBarrier& out, double& distance) const;
+  /// The moving obstacle that carries a vertex at p (at the start of the substep) in the starting
+  /// point: of those that come within dHat of it over the substep, the one whose motion leaves it
+  /// farthest from every obstacle at the end; size() if none does, or if staying is farther.
+  std::size_t carryingObstacle(const Eigen::Vector3d& p);
   FrictionShare frictionShare(const Friction& f, const VectorX& x, bool wantHessian) const;
   /// The parts of vertexDerivatives (added to out); false when a distance is not positive.
   bool addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const;
@@ -184,6 +189,7 @@ class ContactModel {
   const std::vector<char>* pinned_ = nullptr;
   std::vector<std::pair<int, int>> pointTriangle_, edgeEdge_;
   std::vector<Friction> friction_;
+  std::vector<char> carried_;  // per vertex: moved with an obstacle in the starting point
   // Per vertex: its self-contact pairs (point-triangle pairs first, then edge-edge) and its
   // friction entries, for vertexDerivatives; built by prepareVertexAccess, stale once the pairs
   // or the friction change.
