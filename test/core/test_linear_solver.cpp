@@ -88,8 +88,9 @@ TEST_P(EveryKind, SolvesASystemWithAKnownSolution) {
 }
 
 INSTANTIATE_TEST_SUITE_P(LinearSolver, EveryKind,
-                         ::testing::Values(LinearSolverKind::Simplicial, LinearSolverKind::Cholmod,
-                                           LinearSolverKind::Ldlt, LinearSolverKind::Cg),
+                         ::testing::Values(LinearSolverKind::Auto, LinearSolverKind::Simplicial,
+                                           LinearSolverKind::Cholmod, LinearSolverKind::Ldlt,
+                                           LinearSolverKind::Cg),
                          [](const auto& info) { return linearSolverName(info.param); });
 
 TEST(LinearSolver, CholeskyRefusesAMatrixThatIsNotPositiveDefinite) {
@@ -104,14 +105,27 @@ TEST(LinearSolver, CholeskyRefusesAMatrixThatIsNotPositiveDefinite) {
   }
 }
 
-TEST(LinearSolver, AutoPicksByTheNumberOfUnknowns) {
+TEST(LinearSolver, AutoPicksByTheFlopsOfTheFactor) {
   if (!cholmodAvailable()) GTEST_SKIP() << "built without CHOLMOD";
-  // docs/scenes.md: simplicial up to 4000 unknowns, supernodal up to 200000, CG above.
-  EXPECT_EQ(resolveLinearSolverKind(LinearSolverKind::Auto, 4000), LinearSolverKind::Simplicial);
-  EXPECT_EQ(resolveLinearSolverKind(LinearSolverKind::Auto, 4001), LinearSolverKind::Cholmod);
-  EXPECT_EQ(resolveLinearSolverKind(LinearSolverKind::Auto, 200000), LinearSolverKind::Cholmod);
+  // docs/scenes.md: CG above 200000 unknowns; below, simplicial up to 1e7 flops of the factor.
   EXPECT_EQ(resolveLinearSolverKind(LinearSolverKind::Auto, 200001), LinearSolverKind::Cg);
   EXPECT_EQ(resolveLinearSolverKind(LinearSolverKind::Ldlt, 10), LinearSolverKind::Ldlt);
+  LinearSolverSettings settings;  // auto
+  // 6x6 nodes, 108 unknowns: no factor of them needs more than a dense one, 108^3/3 = 4.2e5 flops.
+  const Matrix small = gridSystem(6, 500.0, 2.0);
+  auto a = makeLinearSolver(settings, small.rows());
+  ASSERT_TRUE(a->compute(small));
+  EXPECT_EQ(a->name(), "simplicial");
+  // 104x104 nodes: a k x k grid has treewidth k, so any elimination order makes a dense front of
+  // at least k + 1 = 105 nodes, 315 unknowns: at least 315^3/3 = 1.04e7 flops.
+  const Matrix large = gridSystem(104, 500.0, 2.0);
+  auto b = makeLinearSolver(settings, large.rows());
+  ASSERT_TRUE(b->compute(large));
+  EXPECT_EQ(b->name(), "cholmod");
+  const VectorX truth = knownSolution(large.rows());
+  VectorX x;
+  ASSERT_TRUE(b->solve(large * truth, x));
+  EXPECT_LT(relativeError(x, truth), 1e-9);
 }
 
 TEST(LinearSolver, UnknownKindIsNamedWithTheKnownOnes) {

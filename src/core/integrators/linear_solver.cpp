@@ -55,7 +55,7 @@ LinearSolverKind resolveLinearSolverKind(LinearSolverKind kind, Index numDofs) {
   if (kind != LinearSolverKind::Auto) return kind;
   if (numDofs > kAutoDirectLimit) return LinearSolverKind::Cg;
   if (!cholmodAvailable()) return LinearSolverKind::Ldlt;
-  return numDofs <= kAutoSimplicialLimit ? LinearSolverKind::Simplicial : LinearSolverKind::Cholmod;
+  return LinearSolverKind::Auto;  // simplicial or supernodal, by the analysis of each pattern
 }
 
 namespace {
@@ -142,11 +142,13 @@ void useOneBlasThread() {
 // make of an unpermuted or lower-stored matrix.
 class CholmodSolver final : public LinearSolver {
  public:
-  explicit CholmodSolver(bool supernodal) : supernodal_(supernodal) {
+  /// Supernodal, simplicial, or (automatic) whichever the flop count of each analysed pattern's
+  /// factor calls for (kAutoSimplicialFlops).
+  CholmodSolver(bool supernodal, bool automatic) : supernodal_(supernodal), automatic_(automatic) {
     cholmod_start(&common_);
     common_.supernodal = CHOLMOD_SUPERNODAL;
     common_.print = 0;     // a matrix that is not positive definite fails compute(): no message
-    if (supernodal) useOneBlasThread();
+    useOneBlasThread();
   }
   ~CholmodSolver() override {
     cholmod_free_factor(&factor_, &common_);
@@ -237,6 +239,7 @@ class CholmodSolver final : public LinearSolver {
     cholmod_factor* ordering = cholmod_analyze(&S, &common_);
     if (ordering == nullptr) return false;
     perm_.assign(static_cast<const int*>(ordering->Perm), static_cast<const int*>(ordering->Perm) + n);
+    if (automatic_) supernodal_ = common_.fl > kAutoSimplicialFlops;
     cholmod_free_factor(&ordering, &common_);
     permute(A);
     if (!supernodal_) {
@@ -280,6 +283,7 @@ class CholmodSolver final : public LinearSolver {
   }
 
   bool supernodal_;
+  bool automatic_;
   cholmod_common common_{};
   cholmod_factor* factor_ = nullptr;
   cholmod_dense *x_ = nullptr, *y_ = nullptr, *e_ = nullptr;  // cholmod_solve2's, reused
@@ -324,8 +328,9 @@ std::unique_ptr<LinearSolver> makeLinearSolver(const LinearSolverSettings& setti
   switch (resolveLinearSolverKind(settings.kind, numDofs)) {
     case LinearSolverKind::Cg: return std::make_unique<CgSolver>(settings);
 #ifdef FEM_CLOTH_HAVE_CHOLMOD
-    case LinearSolverKind::Cholmod: return std::make_unique<CholmodSolver>(true);
-    case LinearSolverKind::Simplicial: return std::make_unique<CholmodSolver>(false);
+    case LinearSolverKind::Auto: return std::make_unique<CholmodSolver>(false, true);
+    case LinearSolverKind::Cholmod: return std::make_unique<CholmodSolver>(true, false);
+    case LinearSolverKind::Simplicial: return std::make_unique<CholmodSolver>(false, false);
 #endif
     default: return std::make_unique<EigenLdltSolver>();
   }

@@ -3,17 +3,18 @@
 // solver analyses it once (ordering, symbolic factorisation) and only refactorises numerically
 // afterwards.
 //
-// Which factorisation `auto` picks, and why (measured: docs/performance.md, "The linear solve"):
-//   - up to kAutoSimplicialLimit unknowns, a simplicial LL^T (Eigen's, on CHOLMOD's fill-reducing
+// Which factorisation `auto` picks, and why (measured: docs/performance.md, "The linear solve"),
+// decided anew for each pattern by the flop count of its factor (CHOLMOD's analysis):
+//   - up to kAutoSimplicialFlops, a simplicial LL^T (Eigen's, on CHOLMOD's fill-reducing
 //     ordering): it calls no BLAS, so its results are the same bits on every machine running the
-//     same build (the fixture bags replay bit for bit anywhere), and on small systems it is as
-//     fast as the supernodal one or faster (whole 0.05 s backward Euler runs of the hanging
-//     cloth, 2026-12: 13 against 19 ms at 17x17, 94 against 91 ms at 33x33);
+//     same build (the fixture bags replay bit for bit anywhere), and on such small factors it is
+//     about as fast as the supernodal one;
 //   - above, CHOLMOD's supernodal LL^T, whose dense updates go to the BLAS (OpenBLAS, installed
-//     by scripts/install-deps, run on one thread): 1.3x faster at 45x45, 1.7x at 65x65, but
+//     by scripts/install-deps, run on one thread): 1.3x faster on a 45x45 hanging cloth, 1.7x
+//     at 65x65 and on the 33x33 fold (whose two layers in contact make a denser factor), but
 //     OpenBLAS picks its kernels by CPU at run time, so results are bit-identical only on the
 //     same machine;
-//   - above kAutoDirectLimit, conjugate gradients (a direct factor no longer fits comfortably);
+//   - above kAutoDirectLimit unknowns, conjugate gradients (a direct factor no longer fits);
 //   - without CHOLMOD (a build without SuiteSparse), Eigen's simplicial LDL^T.
 // The direct solvers factorise the matrix permuted once by the fill-reducing ordering of its
 // pattern, into storage kept from call to call: no transpose or copy of the matrix per call, and
@@ -31,15 +32,17 @@
 namespace fem_cloth {
 
 enum class LinearSolverKind {
-  Auto,        ///< simplicial, then supernodal, then CG, by size (above)
+  Auto,        ///< simplicial or supernodal by the factor's flops, CG above kAutoDirectLimit
   Simplicial,  ///< simplicial LL^T on CHOLMOD's ordering (no BLAS: bit-identical across machines)
   Cholmod,     ///< CHOLMOD supernodal LL^T (BLAS)
   Ldlt,        ///< Eigen SimplicialLDLT with AMD ordering (no SuiteSparse needed)
   Cg,          ///< conjugate gradients, incomplete-Cholesky preconditioned
 };
 
-/// Unknowns up to which `auto` factorises simplicially (measured crossover: above).
-constexpr Index kAutoSimplicialLimit = 4000;
+/// Flops of the factor up to which `auto` factorises simplicially (above): the 13x13 pinch-lift
+/// (1.0e6) and the 33x33 hanging cloth (7.0e6) are below, the 33x33 fold in contact (3.4e7) and
+/// the 45x45 hanging cloth above.
+constexpr double kAutoSimplicialFlops = 1e7;
 constexpr Index kAutoDirectLimit = 200000;
 
 Expected<LinearSolverKind> parseLinearSolverKind(const std::string& name);
@@ -73,7 +76,8 @@ struct LinearSolverSettings {
   int cgMaxIterations = 2000;
 };
 
-/// The kind `auto` stands for with numDofs unknowns (the kind itself otherwise).
+/// The kind `auto` stands for with numDofs unknowns (the kind itself otherwise): CG above
+/// kAutoDirectLimit, LDL^T without CHOLMOD, else Auto (decided per pattern, above).
 LinearSolverKind resolveLinearSolverKind(LinearSolverKind kind, Index numDofs);
 
 /// The solver for a system of numDofs unknowns (resolveLinearSolverKind).
