@@ -375,6 +375,43 @@ TEST(ContactStartingPoint, SheetBetweenRisingPadsMovesWithThemOnce) {
   }
 }
 
+// The step bound per DOF (ContactModel::prepareSegment, StepBound in solvers/line_search.h): a
+// sheet 1 mm above a box's top face; vertex 0 moves 4 mm straight down, vertex 8 1 mm sideways,
+// the rest stay. The distance to the face falls linearly, so additive CCD (rescaling s = 0.1)
+// stops vertex 0 after its first advance, t = (1 - s) d0 / L = 0.9 x 1 / 4 = 0.225 (the next would
+// leave 0.01 mm < s d0); vertex 8 keeps its distance and may take its whole step. The whole
+// step's bound is the smallest, with or without the per-DOF request.
+TEST(ContactStepBound, EachVertexIsBoundedByItsOwnObstacleDistance) {
+  Scene scene = gridScene(3, 3, 0.04, "backward_euler");
+  Simulation sim = mustBuild(scene);
+  Obstacle floor;
+  floor.name = "floor";
+  floor.shape.type = ShapeType::Box;
+  floor.shape.halfExtents = Eigen::Vector3d(0.1, 0.1, 0.01);
+  floor.geometry.translation() = Eigen::Vector3d(0.02, 0.02, -0.011);  // top face at z = -1 mm
+  ContactSettings settings;
+  settings.distance = 2e-4;
+  ContactModel contact(*sim.model, {floor}, settings, 9.81);
+  const double h = 0.01;
+  contact.obstacles().beginStep(0.0, h);
+  const VectorX x = sim.mesh->restPositions;
+  const std::vector<char> pinned(static_cast<std::size_t>(x.size()), 0);
+  contact.beginSubstep(x, x, 1.0 / h, h, pinned, 0.0, 1.0);
+  VectorX dx = VectorX::Zero(x.size());
+  dx[2] = -4e-3;   // vertex 0 down
+  dx[24] = 1e-3;   // vertex 8 along x
+  VectorX perDof = VectorX::Ones(x.size());
+  const double whole = contact.prepareSegment(x, dx, true, &perDof);
+  const double expected = 0.9 * 1e-3 / 4e-3;
+  EXPECT_NEAR(whole, expected, 1e-12);
+  EXPECT_EQ(contact.prepareSegment(x, dx), whole);
+  for (int d = 0; d < 3; ++d) {
+    EXPECT_NEAR(perDof[d], expected, 1e-12) << "DOF " << d;
+    EXPECT_EQ(perDof[24 + d], 1.0) << "DOF " << 24 + d;
+    EXPECT_EQ(perDof[12 + d], 1.0) << "DOF " << 12 + d;
+  }
+}
+
 // Leave out what a scene does not need: without obstacles and self-collision there is no contact
 // model at all and no step checks a single distance, whatever the contact settings; a far-away
 // obstacle costs checks but changes nothing for the explicit steppers.

@@ -314,7 +314,7 @@ struct ContactFixture {
     frame = backwardEulerFrame(x0, pinned);
     barriers.beginSubstep(frame);  // the contact's substep (the potential adds it first)
     friction.beginSubstep(frame);
-    barriers.prepareStep(x, VectorX::Zero(x.size()));
+    barriers.prepareStep(x, VectorX::Zero(x.size()), nullptr);
     barriers.prepareVertexAccess();  // after the pairs changed (nothing to prepare yet)
     friction.prepareVertexAccess();
     std::unique_ptr<EnergyTerm> membrane =
@@ -390,10 +390,10 @@ TEST(VertexAccess, ContactNeedsPreparationAfterItsPairsChange) {
     ASSERT_TRUE(f.friction.vertexDerivatives(f.x, v, HessianMode::Projected, d)) << change;
     EXPECT_EQ(d.force, friction.force) << change;
   };
-  f.barriers.prepareStep(f.x, VectorX::Zero(f.x.size()));
+  f.barriers.prepareStep(f.x, VectorX::Zero(f.x.size()), nullptr);
   expectStaleThenFresh("prepareStep");
   f.barriers.beginSubstep(f.frame);
   f.friction.beginSubstep(f.frame);
-  f.barriers.prepareStep(f.x, VectorX::Zero(f.x.size()));
+  f.barriers.prepareStep(f.x, VectorX::Zero(f.x.size()), nullptr);
   expectStaleThenFresh("beginSubstep");
 }

@@ -288,7 +288,13 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
   return Status::success();
 }
 
-double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles) {
+double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles,
+                                    VectorX* perDof) {
+  // Each vertex's own bound: t found with the cap 1 instead of the running minimum (additive CCD
+  // advances the same way under any cap, so the minimum, the whole step's t, is the same bits).
+  auto lower = [&](Index v, double t) {
+    if (perDof != nullptr) perDof->segment<3>(3 * v) = perDof->segment<3>(3 * v).cwiseMin(t);
+  };
   double t = 1.0;
   const Index n = withObstacles ? mesh_->numVertices() : 0;
   for (Index i = 0; i < n; ++i) {
@@ -296,39 +302,48 @@ double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool wi
     const Eigen::Vector3d p = vertex(x, i), step = vertex(dx, i);
     const double length = step.norm();
     if (length == 0.0) continue;
+    const double cap = perDof != nullptr ? 1.0 : t;
+    double ti = cap;
     for (std::size_t k = 0; k < obstacles_->size(); ++k) {
       const double d0 = obstacles_->distance(k, p, true).distance;
       // A vertex cannot lose more distance than it moves.
-      if (length * t < (1.0 - ccd::kRescaling) * d0) continue;
+      if (length * ti < (1.0 - ccd::kRescaling) * d0) continue;
       auto at = [&](double s) { return obstacles_->distance(k, p + s * step, true).distance; };
-      t = std::min(t, ccd::additive(at, d0, length, t));
+      ti = std::min(ti, ccd::additive(at, d0, length, ti));
     }
+    lower(i, ti);
+    t = std::min(t, ti);
   }
-  if (settings_.selfCollision) {
-    const bool moving = dx.size() == x.size() && !dx.isZero();
-    selfCandidates(x, moving ? &dx : nullptr);
-    if (moving) {
-      Eigen::Matrix<double, 3, 4> X, D;
-      auto load = [&](std::array<Index, 4> v) {
-        for (int c = 0; c < 4; ++c) {
-          X.col(c) = vertex(x, v[static_cast<std::size_t>(c)]);
-          D.col(c) = vertex(dx, v[static_cast<std::size_t>(c)]);
-        }
-      };
-      for (const auto& [p, tIndex] : pointTriangle_) {
-        const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(tIndex)];
-        load({p, tri[0], tri[1], tri[2]});
-        ++checks_;
-        t = std::min(t, ccd::pointTriangle(X, D, t));
-      }
-      for (const auto& [a, b] : edgeEdge_) {
-        const auto& ea = edges_[static_cast<std::size_t>(a)];
-        const auto& eb = edges_[static_cast<std::size_t>(b)];
-        load({ea[0], ea[1], eb[0], eb[1]});
-        ++checks_;
-        t = std::min(t, ccd::edgeEdge(X, D, t));
-      }
+  if (settings_.selfCollision) t = std::min(t, selfSegment(x, dx, t, perDof));
+  return t;
+}
+
+double ContactModel::selfSegment(const VectorX& x, const VectorX& dx, double tMax, VectorX* perDof) {
+  const bool moving = dx.size() == x.size() && !dx.isZero();
+  selfCandidates(x, moving ? &dx : nullptr);
+  if (!moving) return tMax;
+  double t = tMax;
+  Eigen::Matrix<double, 3, 4> X, D;
+  auto pair = [&](std::array<Index, 4> v, auto ccdOf) {
+    for (int c = 0; c < 4; ++c) {
+      X.col(c) = vertex(x, v[static_cast<std::size_t>(c)]);
+      D.col(c) = vertex(dx, v[static_cast<std::size_t>(c)]);
     }
+    ++checks_;
+    const double tp = ccdOf(X, D, perDof != nullptr ? 1.0 : t);
+    if (perDof != nullptr) {
+      for (Index vertexIndex : v) perDof->segment<3>(3 * vertexIndex) = perDof->segment<3>(3 * vertexIndex).cwiseMin(tp);
+    }
+    t = std::min(t, tp);
+  };
+  for (const auto& [p, tIndex] : pointTriangle_) {
+    const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(tIndex)];
+    pair({p, tri[0], tri[1], tri[2]}, [](const auto& A, const auto& B, double c) { return ccd::pointTriangle(A, B, c); });
+  }
+  for (const auto& [a, b] : edgeEdge_) {
+    const auto& ea = edges_[static_cast<std::size_t>(a)];
+    const auto& eb = edges_[static_cast<std::size_t>(b)];
+    pair({ea[0], ea[1], eb[0], eb[1]}, [](const auto& A, const auto& B, double c) { return ccd::edgeEdge(A, B, c); });
   }
   return t;
 }

@@ -133,9 +133,10 @@ void IncrementalPotential::hessian(const VectorX& x, SparseHessian& hessian,
   }
 }
 
-double IncrementalPotential::prepareStep(const VectorX& x, const VectorX& dx) {
+double IncrementalPotential::prepareStep(const VectorX& x, const VectorX& dx, VectorX* perDof) {
   double t = 1.0;
-  for (PotentialTerm* term : bounded_) t = std::min(t, term->prepareStep(x, dx));
+  for (PotentialTerm* term : bounded_) t = std::min(t, term->prepareStep(x, dx, perDof));
+  if (perDof != nullptr) *perDof = perDof->cwiseMax(t);
   return t;
 }
 

@@ -231,8 +231,8 @@ EvalResult BarrierTerm::evaluate(const VectorX& x, const TermRequest& request) {
   return evaluateContact(*contact_, x, request, ContactModel::Part::Barriers);
 }
 
-double BarrierTerm::prepareStep(const VectorX& x, const VectorX& dx) {
-  return contact_->prepareSegment(x, dx);
+double BarrierTerm::prepareStep(const VectorX& x, const VectorX& dx, VectorX* perDof) {
+  return contact_->prepareSegment(x, dx, true, perDof);
 }
 
 void BarrierTerm::prepareVertexAccess() { contact_->prepareVertexAccess(); }

@@ -38,12 +38,6 @@ double NewtonSolver::relativeGradient(const NewtonProblem& problem, const Vector
   return worst / problem.potential->c2();
 }
 
-void NewtonSolver::moveToTrial(const NewtonProblem& problem, NewtonIterate& it) {
-  it.x.swap(xTrial_);
-  it.termGradient.swap(termGradientTrial_);
-  problem.potential->gradient(it.x, it.termGradient, it.gradient);
-}
-
 bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate& it) {
   const std::vector<char>& pinned = *problem.pinned;
   const VectorX& mass = problem.potential->mass();
@@ -65,47 +59,6 @@ bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate&
   }
   dx_.setZero(n);
   return solver_->compute(*system) && solver_->solve(rhs_, dx_);
-}
-
-bool NewtonSolver::lineSearch(const NewtonProblem& problem, double maxStep, NewtonIterate& it,
-                              NewtonOutcome& outcome) {
-  IncrementalPotential& potential = *problem.potential;
-  // Backtracking line search on Phi (Armijo); +inf (outside the domain) always backtracks.
-  const double slope = it.gradient.dot(dx_);
-  double step = maxStep;
-  // Close to the minimum the decrease a Newton step makes, about -slope/2 (Newton decrement),
-  // falls below the round-off of Phi itself, which is of order eps times the magnitudes of its
-  // terms. Comparing Phi values there only compares noise: the search accepts tiny random
-  // steps and Newton stalls just above a tight tolerance (and more so after a rollback, since
-  // the decrement scales with c^4 and Phi with c^2). There the force residual, which has no
-  // such cancellation, is the merit function instead: the full step is taken if it lowers it.
-  const double phiScale = potential.roundoff(it.phi, it.terms);
-  if (-slope <= 1e3 * std::numeric_limits<double>::epsilon() * phiScale && maxStep >= 1.0) {
-    xTrial_ = it.x + dx_;
-    const TermsEvaluation trial = potential.evaluateTerms(xTrial_, &termGradientTrial_);
-    if (trial.inDomain) {
-      potential.gradient(xTrial_, termGradientTrial_, gTrial_);
-      if (relativeGradient(problem, gTrial_) < relativeGradient(problem, it.gradient)) {
-        it.terms = trial;
-        it.phi = potential.value(xTrial_, trial);
-        return true;
-      }
-    }
-  }
-  for (int b = 0; b <= settings_.maxBacktracks; ++b) {
-    xTrial_ = it.x + step * dx_;
-    const TermsEvaluation trial = potential.evaluateTerms(xTrial_, &termGradientTrial_);
-    const double phiTrial = trial.inDomain ? potential.value(xTrial_, trial) : kInfiniteEnergy;
-    if (phiTrial <= it.phi + settings_.armijo * step * slope) {
-      it.phi = phiTrial;
-      it.terms = trial;
-      lastFraction_ = step;
-      return true;
-    }
-    ++outcome.backtracks;
-    step *= 0.5;
-  }
-  return false;
 }
 
 NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& it) {
@@ -137,23 +90,24 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     const double stepLength = dx_.cwiseAbs().maxCoeff();
     lastStep = stepLength;
     // The step may go only as far as the step-bounding terms (CCD) find safe.
-    const double maxStep = potential.hasStepBound() ? potential.prepareStep(it.x, dx_) : 1.0;
+    const double maxStep = search_.bound(potential, it.x, dx_).whole;
     if (stepLength <= stepTolerance && maxStep >= 1.0) {
       // A Newton step shorter than the tolerance: the error left is below it. Take the step (if
       // it stays in the domain), without a line search, whose test would only compare round-off;
       // stop if the forces balance.
-      xTrial_ = it.x + dx_;
-      const TermsEvaluation trial = potential.evaluateTerms(xTrial_, &termGradientTrial_);
-      if (trial.inDomain) {
+      TermsEvaluation trial;
+      if (search_.evaluateFullStep(potential, it, dx_, trial)) {
         it.terms = trial;
-        moveToTrial(problem, it);
+        search_.moveToTrial(potential, it);
         it.phi = potential.value(it.x, it.terms);
       }
       if (balanced()) break;
       continue;
     }
-    lastFraction_ = 1.0;
-    if (!lineSearch(problem, maxStep, it, outcome)) {
+    const LineSearch::Outcome found = search_.search(
+        potential, dx_, it, [&](const VectorX& g) { return relativeGradient(problem, g); });
+    outcome.backtracks += found.backtracks;
+    if (!found.moved) {
       // No measurable decrease of Phi: at its minimum to round-off, if the forces balance.
       if (balanced()) break;
       std::ostringstream msg;
@@ -161,9 +115,8 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
           << settings_.maxBacktracks << " backtracks";
       return fail(msg.str());
     }
-    moveToTrial(problem, it);
     // A full Newton step that was already short: converged without another solve.
-    if (lastFraction_ == 1.0 && stepLength <= stepTolerance && balanced()) break;
+    if (found.fraction == 1.0 && stepLength <= stepTolerance && balanced()) break;
   }
   if (!it.x.allFinite()) {
     outcome.ok = false;

@@ -71,7 +71,10 @@ class ContactModel {
   /// Broad phase for the positions x + t dx, t in [0, 1] (dx may be zero), kept for the
   /// evaluations that follow, and the largest t that additive CCD finds collision-free
   /// (obstacles at the end of the substep; only self-contact if `withObstacles` is false).
-  double prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles = true);
+  /// With perDof (3 per vertex), lowers each DOF's entry to the t at which its vertex would
+  /// stop against an obstacle, or a self-contact pair it is in would stop.
+  double prepareSegment(const VectorX& x, const VectorX& dx, bool withObstacles = true,
+                        VectorX* perDof = nullptr);
   /// The parts of the contact's energy: the barriers kappa B, the lagged friction D, or both.
   enum class Part { Barriers, Friction, Both };
   /// kappa B(x) + D(x) (J), or one part of it, +inf if a distance is zero or negative. Adds
@@ -173,6 +176,9 @@ class ContactModel {
   void scatter(const std::array<Index, 4>& v, const Eigen::Matrix<double, 12, 1>& g,
                const Eigen::Matrix<double, 12, 12>* H, Assembly& a) const;
   void selfCandidates(const VectorX& x, const VectorX* dx);
+  /// prepareSegment's self-contact part: the candidate pairs, and the largest t <= tMax that
+  /// their CCD finds collision-free (per DOF as prepareSegment's).
+  double selfSegment(const VectorX& x, const VectorX& dx, double tMax, VectorX* perDof);
   double edgeMollifierThreshold(Index ea, Index eb) const;
 
   std::shared_ptr<const Mesh> mesh_;

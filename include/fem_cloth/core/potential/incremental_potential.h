@@ -71,8 +71,9 @@ class IncrementalPotential {
                std::vector<Eigen::Triplet<double>>& outside);
   /// Prepares per-vertex access of every term added (PotentialTerm::prepareVertexAccess).
   void prepareVertexAccess();
-  /// Readies the step-bounding terms for x + t dx and returns the largest safe t in [0, 1].
-  double prepareStep(const VectorX& x, const VectorX& dx);
+  /// Readies the step-bounding terms for x + t dx and returns the largest safe t in [0, 1];
+  /// with perDof (sized as x, preset to 1), also each DOF's bound (PotentialTerm::prepareStep).
+  double prepareStep(const VectorX& x, const VectorX& dx, VectorX* perDof = nullptr);
   /// The size of the round-off in Phi at a point: |Phi| + 2 c^2 (|stored| + |load|).
   double roundoff(double phi, const TermsEvaluation& terms) const;
 

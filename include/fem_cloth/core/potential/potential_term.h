@@ -78,8 +78,10 @@ class PotentialTerm {
   /// energy is +inf and inDomain false.
   virtual EvalResult evaluate(const VectorX& x, const TermRequest& request) = 0;
   /// Readies the term for evaluations along x + t dx, t in [0, 1] (dx may be zero), and
-  /// returns the largest t it finds safe; +inf for a term without a step bound.
-  virtual double prepareStep(const VectorX& /*x*/, const VectorX& /*dx*/) {
+  /// returns the largest t it finds safe; +inf for a term without a step bound. With perDof,
+  /// lowers each DOF's entry to the t at which a constraint it takes part in would stop the
+  /// step (StepBound::perDof, solvers/line_search.h).
+  virtual double prepareStep(const VectorX& /*x*/, const VectorX& /*dx*/, VectorX* /*perDof*/) {
     return std::numeric_limits<double>::infinity();
   }
   /// True for a term whose energy continues the previous term's running sum: the potential

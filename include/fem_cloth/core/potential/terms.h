@@ -143,7 +143,7 @@ class BarrierTerm final : public PotentialTerm {
   TermCapabilities capabilities() const override { return {true, true, true, true}; }
   void beginSubstep(const SubstepFrame& frame) override;
   EvalResult evaluate(const VectorX& x, const TermRequest& request) override;
-  double prepareStep(const VectorX& x, const VectorX& dx) override;
+  double prepareStep(const VectorX& x, const VectorX& dx, VectorX* perDof) override;
   /// ContactModel::vertexDerivatives' barriers: the block of the assembled (PSD, Gauss-Newton)
   /// Hessian in both modes, from the pairs of the last prepareStep() (prepare after each).
   void prepareVertexAccess() override;

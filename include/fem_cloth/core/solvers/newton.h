@@ -3,9 +3,9 @@
 //
 // Each iteration solves H dx = -dPhi/dx with H the Hessian of Phi with per-element PSD-projected
 // blocks (so every direction descends; Teran, Sifakis, Irving & Fedkiw 2005), then searches along
-// dx: the step is first cut to the fraction the step-bounding terms find safe (continuous
-// collision detection), then backtracked until Phi decreases enough (Armijo). States outside a
-// term's domain have Phi = +inf and are always rejected. Pinned DOFs are constraints, eliminated:
+// dx (solvers/line_search.h): the step is first cut to the fraction the step-bounding terms find
+// safe (continuous collision detection), then backtracked until Phi decreases enough (Armijo).
+// States outside a term's domain have Phi = +inf and are always rejected. Pinned DOFs are constraints, eliminated:
 // their rows and columns become the identity (scaled by their mass) with zero right-hand side,
 // which keeps the matrix pattern, and so the symbolic factorisation, fixed while pins come and go.
 //
@@ -22,6 +22,7 @@
 
 #include "fem_cloth/core/integrators/linear_solver.h"
 #include "fem_cloth/core/potential/incremental_potential.h"
+#include "fem_cloth/core/solvers/line_search.h"
 
 namespace fem_cloth {
 
@@ -38,14 +39,7 @@ struct NewtonSettings {
   LinearSolverSettings linear;
 };
 
-/// A point of the minimisation, with everything known there.
-struct NewtonIterate {
-  VectorX x;             ///< positions (m)
-  VectorX termGradient;  ///< gradient of the conservative and load terms
-  VectorX gradient;      ///< dPhi/dx
-  TermsEvaluation terms;
-  double phi = 0.0;
-};
+using NewtonIterate = PotentialIterate;
 
 /// What the solver minimises, and when it may stop.
 struct NewtonProblem {
@@ -68,7 +62,8 @@ struct NewtonOutcome {
 
 class NewtonSolver {
  public:
-  explicit NewtonSolver(NewtonSettings settings) : settings_(settings) {}
+  explicit NewtonSolver(NewtonSettings settings)
+      : settings_(settings), search_(LineSearchSettings{settings.maxBacktracks, settings.armijo}) {}
   const NewtonSettings& settings() const { return settings_; }
   /// The linear solver in use (null before the first solve).
   const LinearSolver* linearSolver() const { return solver_.get(); }
@@ -81,19 +76,13 @@ class NewtonSolver {
  private:
   /// Assembles the system at it.x and solves it for dx_.
   bool newtonStep(const NewtonProblem& problem, const NewtonIterate& it);
-  /// The backtracking line search along dx_ (at most maxStep of it); true and `it` moved if it
-  /// found a decrease.
-  bool lineSearch(const NewtonProblem& problem, double maxStep, NewtonIterate& it,
-                  NewtonOutcome& outcome);
   /// Largest |g_i| / (m_i g c^2) over free DOFs: the merit of the round-off fallback.
   double relativeGradient(const NewtonProblem& problem, const VectorX& g) const;
-  /// `it` takes the trial point (positions and term gradient) and its dPhi/dx.
-  void moveToTrial(const NewtonProblem& problem, NewtonIterate& it);
 
   NewtonSettings settings_;
   std::unique_ptr<LinearSolver> solver_;
-  double lastFraction_ = 1.0;  // of dx_ the last line search took
-  VectorX dx_, rhs_, xTrial_, gTrial_, termGradientTrial_;
+  LineSearch search_;
+  VectorX dx_, rhs_;
   std::vector<Eigen::Triplet<double>> outsidePattern_;
   LinearSolver::Matrix extra_, system_;
 };
