@@ -421,6 +421,7 @@ void takeAttempt(StepReport& total, const StepReport& r) {
   total.substeps = r.substeps;
   total.newtonIterations += r.newtonIterations;
   total.lineSearchBacktracks += r.lineSearchBacktracks;
+  total.newtonTimes += r.newtonTimes;
   total.iterations += r.iterations;
   total.unbalanced = r.unbalanced;
   total.residual = r.unbalanced.largest;

@@ -68,6 +68,7 @@ struct Totals {
   std::uint64_t substeps = 0;
   std::uint64_t failures = 0;
   double maxResidual = 0.0;
+  NewtonTimes newtonTimes;
   double minAreaRatio = std::numeric_limits<double>::infinity();
   double maxStretch = -std::numeric_limits<double>::infinity();
 
@@ -77,11 +78,25 @@ struct Totals {
     newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
     localIterations += static_cast<std::uint64_t>(r.iterations);
     backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
+    newtonTimes += r.newtonTimes;
     rollbacks += static_cast<std::uint64_t>(r.rollbacks);
     substeps += static_cast<std::uint64_t>(r.substeps);
     maxResidual = std::max(maxResidual, r.residual);
   }
 };
+
+/// Where the Newton solves' time went (NewtonTimes): the profile of an implicit run.
+std::string newtonTimeLine(const NewtonTimes& t, std::uint64_t iterations) {
+  const double total = t.total();
+  if (iterations == 0 || !(total > 0.0)) return "";
+  auto share = [&](double part) { return std::lround(100.0 * part / total); };
+  std::ostringstream line;
+  line << "Newton time:  " << total << " s, " << 1e3 * total / static_cast<double>(iterations)
+       << " ms per iteration: assembly " << share(t.assembly) << " %, factorisation "
+       << share(t.factorisation) << " %, solve " << share(t.solve) << " %, step bound "
+       << share(t.bound) << " %, line search " << share(t.search) << " %\n";
+  return line.str();
+}
 
 class Progress {
  public:
@@ -411,6 +426,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
             << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
             << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks
             << " rollbacks, " << totals.failures << " failures\n";
+    summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations);
   }
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();

@@ -76,7 +76,9 @@ TEST_P(EveryKind, SolvesASystemWithAKnownSolution) {
   const VectorX b2 = A2 * truth;
   ASSERT_TRUE(solver->solve(b2, x));
   EXPECT_LT(relativeError(x, truth), 1e-9) << solver->name();
-  if (GetParam() != LinearSolverKind::Cg) EXPECT_EQ(solver->analyses(), 1) << solver->name();
+  if (GetParam() != LinearSolverKind::Cg) {
+    EXPECT_EQ(solver->analyses(), 1) << solver->name();
+  }
 
   // A pattern that grew (a self-contact pair): analysed again, and still right.
   const Matrix A3 = gridSystem(12, 80.0, 5.0, true);
@@ -84,7 +86,9 @@ TEST_P(EveryKind, SolvesASystemWithAKnownSolution) {
   const VectorX b3 = A3 * truth;
   ASSERT_TRUE(solver->solve(b3, x));
   EXPECT_LT(relativeError(x, truth), 1e-9) << solver->name();
-  if (GetParam() != LinearSolverKind::Cg) EXPECT_EQ(solver->analyses(), 2) << solver->name();
+  if (GetParam() != LinearSolverKind::Cg) {
+    EXPECT_EQ(solver->analyses(), 2) << solver->name();
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(LinearSolver, EveryKind,

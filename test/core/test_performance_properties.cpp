@@ -56,6 +56,10 @@ TEST_P(SteadyState, StepsAllocateNothing) {
   // 25 steps include a re-estimate of symplectic Euler's bound (every 20 steps).
   for (int k = 0; k < 25; ++k) sim.simulator->step();
   EXPECT_EQ(allocationCount.load() - before, 0) << GetParam()[0];
+  // A scene with obstacles was in contact throughout (else it proves nothing about contact).
+  if (sim.simulator->contact() != nullptr) {
+    EXPECT_GT(sim.simulator->lastReport().contacts, 0);
+  }
   // The counter does see allocations.
   const long check = allocationCount.load();
   void* volatile probe = std::malloc(64);
@@ -67,14 +71,21 @@ TEST_P(SteadyState, StepsAllocateNothing) {
 }
 
 INSTANTIATE_TEST_SUITE_P(
-    FastExplicitAndXpbd, SteadyState,
+    FastExplicitXpbdAndNewton, SteadyState,
     testing::Values(
         std::vector<std::string>{"integrator.name=projective_dynamics", "material.model=arap",
                                  "mesh.rows=17", "mesh.cols=17", "bending.stiffness=1e-5",
                                  "bending.model=quadratic"},
         std::vector<std::string>{"integrator.name=symplectic_euler", "mesh.rows=9", "mesh.cols=9"},
         std::vector<std::string>{"integrator.name=xpbd", "integrator.substeps=4", "mesh.rows=9",
-                                 "mesh.cols=9"}));
+                                 "mesh.cols=9"},
+        // Backward Euler's Newton solve with contact and friction: the cloth lying on a table
+        // 5 mm below it, inside the barrier's 10 mm from the start (barriers, CCD, lagged
+        // friction at every iteration).
+        std::vector<std::string>{"integrator.name=backward_euler", "mesh.rows=9", "mesh.cols=9",
+                                 "contact.distance=0.01",
+                                 "obstacles=[{name: table, type: box, center: [0.5, 0.5, -0.505], "
+                                 "size: [2.0, 2.0, 1.0], friction: 0.3}]"}));
 
 TEST(Parallel, ElementWorkIsBitIdenticalForAnyThreadCount) {
 #ifdef _OPENMP

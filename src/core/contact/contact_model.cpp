@@ -265,7 +265,8 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
   // Everything at once: pins to their targets, free vertices by their own wanted motion, except
   // those an obstacle carries: they have moved with it already (their own velocity, about the
   // obstacle's, on top of the carry put a pinched vertex h |v| into the pad's barrier).
-  VectorX step(x.size());
+  VectorX& step = startStep_;
+  step.resize(x.size());
   for (Eigen::Index d = 0; d < x.size(); ++d) {
     if ((*pinned_)[d]) {
       step[d] = wanted[d] - x[d];
@@ -278,7 +279,8 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
     return Status::success();
   }
   // Else the pins first, the free vertices staying, then the free vertices as far as is safe.
-  VectorX free = step;
+  VectorX& free = startFree_;
+  free = step;
   for (Eigen::Index d = 0; d < x.size(); ++d) ((*pinned_)[d] ? free[d] : step[d]) = 0.0;
   if (prepareSegment(x, step) < 1.0) {
     return Error{"the pins' motion in this step would pass the cloth through itself"};
@@ -675,11 +677,14 @@ void ContactModel::addVertexFriction(const VectorX& x, Index v, VertexDerivative
 }
 
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {
-  std::vector<ObstacleWrench> wrench(obstacles_->size());
-  VectorX gradient = VectorX::Zero(x.size());
+  // Kept from substep to substep (no allocation in a steady step).
+  std::vector<ObstacleWrench>& wrench = finishWrench_;
+  wrench.assign(obstacles_->size(), ObstacleWrench{});
+  VectorX& gradient = finishGradient_;
+  gradient.setZero(x.size());
   ContactStats here;
   evaluateAll(x, &gradient, nullptr, nullptr, 1.0, &wrench, &here);
-  obstacles_->setWrenches(std::move(wrench));
+  obstacles_->setWrenches(wrench);
   stats.contacts = here.contacts;
   stats.minDistance = here.minDistance;
   stats.work += -gradient.dot(x - x0);

@@ -99,7 +99,7 @@ void ProjectionContact::finishSubstep(VectorX& x, const VectorX& xStart, double 
     wrench[static_cast<std::size_t>(k)].torque -= sd.closest.cross(force);
     stats.minDistance = std::min(stats.minDistance, sd.distance);
   }
-  obstacles.setWrenches(std::move(wrench));
+  obstacles.setWrenches(wrench);
   stats.contacts = contacts;
   stats.work += work;
 }

@@ -211,11 +211,21 @@ bool ImplicitIntegrator::solve(const StepInput& input, const State& state, doubl
   problem.hessian = &model_->hessianPattern();
   problem.pinned = pinned_;
   problem.stepTolerance = newton_.settings().tolerance * sizeScale_ * h;  // m
-  problem.residual = [&](const NewtonIterate& it) { return residual(input, state, h, it); };
+  // One pointer captured: std::function keeps it without a heap allocation.
+  struct Context {
+    ImplicitIntegrator* self;
+    const StepInput* input;
+    const State* state;
+    double h;
+  } context{this, &input, &state, h};
+  problem.residual = [c = &context](const NewtonIterate& it) {
+    return c->self->residual(*c->input, *c->state, c->h, it);
+  };
   problem.residualTolerance = input.residualScale.tolerance;
   const NewtonOutcome outcome = newton_.solve(problem, iterate_);
   report.newtonIterations += outcome.iterations;
   report.lineSearchBacktracks += outcome.backtracks;
+  report.newtonTimes += outcome.times;
   if (outcome.ok) return true;
   report.error = name() + ": " + outcome.error;
   if (outcome.forces) {
@@ -254,7 +264,8 @@ void ImplicitIntegrator::commit(State& state, double h, VectorX& pinForce, StepR
   const double c2 = potential_.c2();
   // A backward Euler substep books the pins' kinetic energy exactly (pinWorkInSubstep); BDF2's
   // velocity is not dx / h, so its pins' work stays force times displacement.
-  VectorX vNew = potential_.gamma() * (x - potential_.xc());
+  VectorX& vNew = vNew_;
+  vNew = potential_.gamma() * (x - potential_.xc());
   const VectorX& mass = potential_.mass();
   const bool backwardEuler = !potential_.isBdf2();
   for (Index i = 0; i < x.size(); ++i) {
@@ -269,7 +280,7 @@ void ImplicitIntegrator::commit(State& state, double h, VectorX& pinForce, StepR
   state.xPrevious.swap(state.x);
   state.vPrevious.swap(state.v);
   state.x = x;
-  state.v = std::move(vNew);
+  state.v.swap(vNew);  // both buffers kept: no allocation next substep
   state.historyDt = h;
 }
 

@@ -101,6 +101,14 @@ class EigenLdltSolver final : public LinearSolver {
 
 #ifdef FEM_CLOTH_HAVE_CHOLMOD
 
+// Eigen's simplicial LL^T of a matrix already in its elimination order (natural ordering, upper
+// triangle), factorised without the empty work matrix SimplicialLLT::factorize() builds (and
+// allocates) at every call: the same arithmetic, no allocation.
+class PreorderedLlt : public Eigen::SimplicialLLT<LinearSolver::Matrix, Eigen::Upper, Eigen::NaturalOrdering<int>> {
+ public:
+  void factorizePreordered(const LinearSolver::Matrix& upper) { this->template factorize_preordered<false>(upper); }
+};
+
 // CHOLMOD's supernodal factorisation opens OpenMP parallel regions of its own, with a thread
 // count compiled into Debian's library (4) that OMP_NUM_THREADS does not change, at every large
 // supernode: thousands of thread wake-ups per factorisation, each costing more than the copy it
@@ -172,7 +180,7 @@ class CholmodSolver final : public LinearSolver {
     double* permuted = permuted_.valuePtr();
     for (std::size_t k = 0; k < source_.size(); ++k) permuted[k] = values[source_[k]];
     if (!supernodal_) {
-      llt_.factorize(permuted_);
+      llt_.factorizePreordered(permuted_);
       return llt_.info() == Eigen::Success;
     }
     cholmod_sparse P = view(permuted_);
@@ -290,7 +298,7 @@ class CholmodSolver final : public LinearSolver {
   std::vector<int> perm_;  // permuted row k is row perm_[k] of A
   Matrix permuted_;           // upper triangle of A(perm, perm), values refilled per call
   std::vector<int> source_;   // permuted_'s k-th entry is A's entry source_[k]
-  Eigen::SimplicialLLT<Matrix, Eigen::Upper, Eigen::NaturalOrdering<int>> llt_;  // simplicial
+  PreorderedLlt llt_;  // simplicial
   std::vector<int> analysedOuter_, analysedInner_;
   VectorX work_;
 };

@@ -1,6 +1,7 @@
 #include "fem_cloth/core/solvers/newton.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -10,6 +11,14 @@ namespace fem_cloth {
 namespace {
 
 using Matrix = LinearSolver::Matrix;
+using Clock = std::chrono::steady_clock;
+
+/// Adds the time since `since` to `into` and restarts it (s).
+void lap(Clock::time_point& since, double& into) {
+  const Clock::time_point now = Clock::now();
+  into += std::chrono::duration<double>(now - since).count();
+  since = now;
+}
 
 // Replaces the rows and columns of pinned DOFs by the identity scaled by the DOF's mass, so
 // that the pattern is unchanged and the solve leaves pinned DOFs where they are.
@@ -38,7 +47,8 @@ double NewtonSolver::relativeGradient(const NewtonProblem& problem, const Vector
   return worst / problem.potential->c2();
 }
 
-bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate& it) {
+bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate& it, NewtonTimes& times) {
+  Clock::time_point clock = Clock::now();
   const std::vector<char>& pinned = *problem.pinned;
   const VectorX& mass = problem.potential->mass();
   const Index n = it.x.size();
@@ -58,7 +68,12 @@ bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate&
     if (pinned[i]) rhs_[i] = 0.0;
   }
   dx_.setZero(n);
-  return solver_->compute(*system) && solver_->solve(rhs_, dx_);
+  lap(clock, times.assembly);
+  const bool factorised = solver_->compute(*system);
+  lap(clock, times.factorisation);
+  const bool solved = factorised && solver_->solve(rhs_, dx_);
+  lap(clock, times.solve);
+  return solved;
 }
 
 NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& it) {
@@ -82,7 +97,7 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
       return fail(msg.str());
     }
     ++outcome.iterations;
-    if (!newtonStep(problem, it)) {
+    if (!newtonStep(problem, it, outcome.times)) {
       outcome.ok = false;
       outcome.error = "the linear solve (" + solver_->name() + ") failed";
       return outcome;
@@ -90,7 +105,9 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     const double stepLength = dx_.cwiseAbs().maxCoeff();
     lastStep = stepLength;
     // The step may go only as far as the step-bounding terms (CCD) find safe.
+    Clock::time_point clock = Clock::now();
     const double maxStep = search_.bound(potential, it.x, dx_).whole;
+    lap(clock, outcome.times.bound);
     if (stepLength <= stepTolerance && maxStep >= 1.0) {
       // A Newton step shorter than the tolerance: the error left is below it. Take the step (if
       // it stays in the domain), without a line search, whose test would only compare round-off;
@@ -101,12 +118,14 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
         search_.moveToTrial(potential, it);
         it.phi = potential.value(it.x, it.terms);
       }
+      lap(clock, outcome.times.search);
       if (balanced()) break;
       continue;
     }
     const LineSearch::Outcome found = search_.search(
         potential, dx_, it, [&](const VectorX& g) { return relativeGradient(problem, g); });
     outcome.backtracks += found.backtracks;
+    lap(clock, outcome.times.search);
     if (!found.moved) {
       // No measurable decrease of Phi: at its minimum to round-off, if the forces balance.
       if (balanced()) break;

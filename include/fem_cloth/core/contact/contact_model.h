@@ -183,6 +183,9 @@ class ContactModel {
 
   std::shared_ptr<const Mesh> mesh_;
   VectorX mass_;  // per vertex (kg)
+  // Work storage of startingPoint() and finishSubstep(), kept to allocate nothing per step.
+  VectorX startStep_, startFree_, finishGradient_;
+  std::vector<ObstacleWrench> finishWrench_;
   std::shared_ptr<ObstacleSet> obstacles_;
   ContactSettings settings_;
   double sHat_ = 0.0;

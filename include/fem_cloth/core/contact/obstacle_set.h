@@ -92,7 +92,8 @@ class ObstacleSet {
   // --- What the cloth does to them ---------------------------------------------------------------
   /// Wrench on each obstacle at the end of the last step.
   const std::vector<ObstacleWrench>& wrenches() const { return wrenches_; }
-  void setWrenches(std::vector<ObstacleWrench> wrenches) { wrenches_ = std::move(wrenches); }
+  /// Copied into storage kept from call to call (no allocation once sized).
+  void setWrenches(const std::vector<ObstacleWrench>& wrenches) { wrenches_ = wrenches; }
 
   /// Distance evaluations so far (never reset: callers take differences).
   std::uint64_t checks() const { return checks_; }

@@ -91,7 +91,7 @@ class ImplicitIntegrator final : public Integrator {
   AirModel* air_ = nullptr;  // null: no air term in Phi
   bool massDamped_ = false, stiffnessDamped_ = false;
   // Scratch, sized once.
-  VectorX xTrial_, unbalancedForce_, velocity_;
+  VectorX xTrial_, unbalancedForce_, velocity_, vNew_;
 };
 
 }  // namespace fem_cloth

@@ -91,6 +91,25 @@ struct StepInput {
   ResidualScale residualScale;
 };
 
+/// Where a Newton solve's time went (s of wall time, steady clock): what scripts/bench and
+/// fem_cloth_sim's summary print, so that a profile of the implicit steps is always at hand.
+struct NewtonTimes {
+  double assembly = 0.0;       ///< gradient and projected Hessian of Phi, pins eliminated
+  double factorisation = 0.0;  ///< sparse Cholesky (and its analysis when the pattern changed)
+  double solve = 0.0;          ///< triangular solves
+  double bound = 0.0;          ///< the step bound: broad phase and continuous collision detection
+  double search = 0.0;         ///< line search: Phi and its gradient at the trial points
+  double total() const { return assembly + factorisation + solve + bound + search; }
+  NewtonTimes& operator+=(const NewtonTimes& o) {
+    assembly += o.assembly;
+    factorisation += o.factorisation;
+    solve += o.solve;
+    bound += o.bound;
+    search += o.search;
+    return *this;
+  }
+};
+
 /// What a step did. Counts add up over substeps and retries.
 struct StepReport {
   bool ok = true;
@@ -108,6 +127,7 @@ struct StepReport {
   ForceResidual unbalanced;
   double residual = 0.0;   ///< largest unbalanced force (N, over free DOFs): unbalanced.largest
   int lineSearchBacktracks = 0;
+  NewtonTimes newtonTimes;  ///< implicit steppers: where the Newton solves' time went
   int rollbacks = 0;       ///< failed attempts that were undone and retried
   int iterations = 0;  ///< local solver iterations (XPBD sweeps, projective dynamics iterations)
   double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)

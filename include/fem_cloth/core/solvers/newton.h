@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/integrators/integrator.h"
 #include "fem_cloth/core/integrators/linear_solver.h"
 #include "fem_cloth/core/potential/incremental_potential.h"
 #include "fem_cloth/core/solvers/line_search.h"
@@ -58,6 +59,7 @@ struct NewtonOutcome {
   bool forces = false;    ///< the failure is about unbalanced forces: report them with it
   int iterations = 0;
   int backtracks = 0;
+  NewtonTimes times;
 };
 
 class NewtonSolver {
@@ -75,7 +77,7 @@ class NewtonSolver {
 
  private:
   /// Assembles the system at it.x and solves it for dx_.
-  bool newtonStep(const NewtonProblem& problem, const NewtonIterate& it);
+  bool newtonStep(const NewtonProblem& problem, const NewtonIterate& it, NewtonTimes& times);
   /// Largest |g_i| / (m_i g c^2) over free DOFs: the merit of the round-off fallback.
   double relativeGradient(const NewtonProblem& problem, const VectorX& g) const;
 
