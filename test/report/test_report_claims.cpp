@@ -208,7 +208,14 @@ std::vector<std::string> generalIntegrators() {
 //   it used to be accepted with an extra stretch that no material has;
 // - BDF2 on Neo-Hookean: on the slivers (quality 1e-5) at 1000x stiffness its Newton solve
 //   does not balance the forces (test a) even at 32 substeps; it used to be accepted after a short
-//   last Newton step with the forces unbalanced. Backward Euler converges there.
+//   last Newton step with the forces unbalanced.
+// - Backward Euler on Neo-Hookean there balances or refuses depending on round-off: its projected
+//   Newton steps, shorter than the tolerance, alternate between forces of ~700 and ~18000 times a
+//   vertex's force scale on the compressed slivers (the clamped Hessian is not the energy's), and
+//   whether a cycle breaks depends on the last bits of the linear solve (measured 2026-12:
+//   balanced with CHOLMOD's supernodal factor, refused after 4 rollbacks with the simplicial one,
+//   and either way with one step of iterative refinement at different thresholds). Either
+//   outcome is allowed; a refusal must name the unbalanced force and keep the state.
 // Symplectic Euler on the whip (a pin at 100 m/s) creates no energy beyond 5 % of the run's scale
 // (acceptance b over the run; it used to end "wrong", 30 % created).
 TEST(Claims, StableCellsStayFiniteAndBounded) {
@@ -219,6 +226,13 @@ TEST(Claims, StableCellsStayFiniteAndBounded) {
         EXPECT_EQ(r.verdict, "failed") << integrator;
         EXPECT_TRUE(contains(r.run.error, "outside the validity range") && contains(r.run.error, "|F - T|"))
             << r.run.error;
+        continue;
+      }
+      if (integrator == "backward_euler" && material == "neo_hookean" && r.verdict == "failed") {
+        EXPECT_TRUE(contains(r.run.error, "Newton did not converge") && contains(r.run.error, "unbalanced force") &&
+                    contains(r.run.error, "the state is unchanged"))
+            << r.run.error;
+        EXPECT_LE(r.run.energyGrowth, 1e-6) << integrator << " " << material;
         continue;
       }
       if (integrator == "bdf2" && material == "neo_hookean") {
