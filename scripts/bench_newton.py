@@ -17,6 +17,7 @@ import sys
 # (label, arguments after --scene): the contact scenes of issue 28, then the scaling runs.
 SCENES = [
     ("pinch_lift 13x13", ["config/pinch_lift.yaml"]),
+    ("pinch_lift 33x33", ["config/pinch_lift_33.yaml"]),
     ("fold 33x33, 1 s", ["config/fold.yaml", "--set", "mesh.rows=33", "--set", "mesh.cols=33", "--duration", "1"]),
     ("table_drape", ["config/table_drape.yaml"]),
     ("sphere_drape", ["config/sphere_drape.yaml"]),
