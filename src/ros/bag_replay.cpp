@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <map>
 
@@ -152,6 +153,117 @@ void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& 
   });
 }
 
+// Refuses a bag with a recorded state that cannot be a state of a cloth of `vertices` vertices,
+// naming it, before any work.
+Status checkRecordedStates(const std::string& path, const std::string& node, std::size_t vertices) {
+  Expected<std::unique_ptr<StateReader>> reader = StateReader::open(path, node);
+  if (!reader) return Error{reader.error()};
+  ClothState state;
+  for (;;) {
+    const Expected<bool> got = (*reader)->next(state);
+    if (!got) return Error{got.error()};
+    if (!*got) return Status::success();
+    if (const std::string why = stateDamage(state, vertices); !why.empty()) {
+      return Error{"bag '" + path + "': " + (*reader)->name(state) + " is damaged: " + why};
+    }
+  }
+}
+
+bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// How far apart two lists of points or vectors are: the largest distance (and its vertex), and
+// whether every coordinate has the same bits.
+struct VertexDifference {
+  bool sameBits = true;
+  double largest = 0.0;
+  std::size_t vertex = 0;
+};
+
+template <class V>
+VertexDifference vertexDifference(const std::vector<V>& recorded, const std::vector<V>& simulated) {
+  VertexDifference d;
+  for (std::size_t i = 0; i < recorded.size() && i < simulated.size(); ++i) {
+    const V& a = recorded[i];
+    const V& b = simulated[i];
+    d.sameBits = d.sameBits && sameBits(a.x, b.x) && sameBits(a.y, b.y) && sameBits(a.z, b.z);
+    const double distance = std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+    if (distance > d.largest) {
+      d.largest = distance;
+      d.vertex = i;
+    }
+  }
+  return d;
+}
+
+// The recorded states, compared in bag order with the re-simulation's as it reaches their steps.
+class StateComparison {
+ public:
+  static Expected<StateComparison> open(const std::string& path, const std::string& node) {
+    Expected<std::unique_ptr<StateReader>> reader = StateReader::open(path, node);
+    if (!reader) return Error{reader.error()};
+    StateComparison comparison(std::move(reader).value());
+    FEM_CLOTH_CHECK(comparison.advance());
+    return comparison;
+  }
+  std::size_t count() const { return reader_->count(); }
+
+  /// Compares every recorded state of the driver's step with its state, counting in `report`.
+  /// States of steps the replay went past without them are not compared.
+  Status compare(const SimulationDriver& driver, BagRunReport& report) {
+    const std::uint64_t step = driver.stepIndex();
+    while (has_ && next_.step < step) FEM_CLOTH_CHECK(advance());
+    if (!has_ || next_.step != step) return Status::success();
+    const ClothState simulated = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), true);
+    while (has_ && next_.step == step) {
+      judge(simulated, report);
+      FEM_CLOTH_CHECK(advance());
+    }
+    return Status::success();
+  }
+
+ private:
+  explicit StateComparison(std::unique_ptr<StateReader> reader) : reader_(std::move(reader)) {}
+  Status advance() {
+    const Expected<bool> got = reader_->next(next_);
+    if (!got) return Error{got.error()};
+    has_ = *got;
+    return Status::success();
+  }
+
+  void judge(const ClothState& simulated, BagRunReport& report) const {
+    ++report.compared;
+    const VertexDifference x = vertexDifference(next_.positions, simulated.positions);
+    const bool withVelocities = !next_.velocities.empty();
+    const VertexDifference v = withVelocities ? vertexDifference(next_.velocities, simulated.velocities) : VertexDifference();
+    report.maxPositionDifference = std::max(report.maxPositionDifference, x.largest);
+    report.maxVelocityDifference = std::max(report.maxVelocityDifference, v.largest);
+    const bool sameHash = next_.state_hash == simulated.state_hash;
+    if (x.sameBits && v.sameBits && sameHash) {
+      ++report.identical;
+      return;
+    }
+    if (!report.firstDifference.empty()) return;
+    report.firstMismatch = next_.step;
+    std::vector<std::string> parts;
+    if (!x.sameBits) {
+      parts.push_back("positions differ by up to " + numberText(x.largest) + " m (vertex " + std::to_string(x.vertex) + ")");
+    }
+    if (!v.sameBits) {
+      parts.push_back("velocities differ by up to " + numberText(v.largest) + " m/s (vertex " + std::to_string(v.vertex) + ")");
+    }
+    if (parts.empty()) {
+      parts.push_back(withVelocities ? "positions and velocities agree bit for bit, but the state hash differs (an altered hash)"
+                                     : "positions agree bit for bit, but the state hash differs: the velocities, which "
+                                       "the recording does not hold, differ (or the hash was altered)");
+    }
+    report.firstDifference = reader_->name(next_) + ": " + parts.front() + (parts.size() > 1 ? "; " + parts.back() : "");
+  }
+
+  std::unique_ptr<StateReader> reader_;
+  ClothState next_;
+  bool has_ = false;
+};
+
 // The SimulationDriver fed with a recorded run, as the report steps it.
 class DriverRun : public DrivenSimulation {
  public:
@@ -232,10 +344,18 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   DriverSettings settings;
   Expected<Timeline> timeline = replayTimeline(run ? &*run : nullptr, dt);
   if (!timeline) return Error{timeline.error()};
+  std::optional<StateComparison> comparison;
+  if (run) {
+    FEM_CLOTH_CHECK(checkRecordedStates(inBag, options.node, static_cast<std::size_t>(simulation->mesh->numVertices())));
+    Expected<StateComparison> opened = StateComparison::open(inBag, options.node);
+    if (!opened) return Error{opened.error()};
+    comparison.emplace(std::move(opened).value());
+  }
   settings.epoch = timeline->origin();
   if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
+  if (comparison) report.recordedStates = comparison->count();
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
@@ -269,16 +389,10 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     out.write(topics.state, t, state);
     out.write(topics.energy, t, toMsg(driver.header(), driver.stepIndex(), driver.simulator().energies()));
     out.write(topics.stats, t, statsMessage(driver, r, wall, 0.0));
-    auto it = recorded.find(state.step);
-    if (it != recorded.end()) {
-      ++report.compared;
-      if (it->second == state.state_hash) {
-        ++report.identical;
-      } else if (report.compared == report.identical + 1) {
-        report.firstMismatch = state.step;
-      }
-    }
   };
+  // Every recorded state is compared when the replay reaches its step, written or not.
+  auto compare = [&]() { return comparison ? comparison->compare(driver, report) : Status::success(); };
+  FEM_CLOTH_CHECK(compare());
   if (wanted(0)) record(StepReport(), 0.0);
 
   Progress progress(total, options.progress);
@@ -299,6 +413,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
       break;
     }
     ++report.steps;
+    FEM_CLOTH_CHECK(compare());
     if (wanted(driver.stepIndex())) {
       record(r, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
