@@ -3,11 +3,14 @@
 #include <std_msgs/String.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
+#include <limits>
 #include <map>
 
 #include "fem_cloth/io/output_file.h"
@@ -86,7 +89,7 @@ Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) {
   return *timeline;
 }
 
-// What a replay takes from its recording once the driver holds the recorded commands.
+// What a replay takes from its recording.
 struct ReplaySettings {
   std::map<std::uint64_t, std::string> recorded;  ///< step -> state hash
   double lastRecorded = 0.0;  ///< s: the last recorded state's step x dt (0: none)
@@ -96,9 +99,9 @@ struct ReplaySettings {
   ros::Time reference;  ///< the start of the recording (0 without one)
 };
 
-// Submits every recorded command up front (the driver applies each at its stamp), counting them
-// and the rejected ones (rejected live as well) in `report`.
-ReplaySettings feedRecording(const RecordedRun* run, SimulationDriver& driver, double dt, BagRunReport& report) {
+// What the replay of `run` takes from it, counting its commands per topic in `report` (the
+// CommandFeed submits them).
+ReplaySettings replaySettings(const RecordedRun* run, const SimulationDriver& driver, double dt, BagRunReport& report) {
   ReplaySettings settings;
   settings.origin = driver.timeline().origin();
   if (run == nullptr) return settings;
@@ -108,15 +111,64 @@ ReplaySettings feedRecording(const RecordedRun* run, SimulationDriver& driver, d
   for (const Command& c : run->commands) {
     ++report.commands[static_cast<std::size_t>(topicOf(c))];
     settings.lastCommand = std::max(settings.lastCommand, secondsBetween(headerOf(c).stamp, settings.origin));
-    if (Status s = driver.submit(c); !s) {
-      ++report.rejected;
-      report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
-    }
   }
   for (const RecordedState& s : run->states) settings.recorded[s.step] = s.hash;
   if (!settings.recorded.empty()) settings.lastRecorded = static_cast<double>(settings.recorded.rbegin()->first) * dt;
   return settings;
 }
+
+// The recorded commands, each submitted to the driver just before the step it takes effect
+// before, as the node had received it by then: the driver judges it against the scene as it is
+// at that moment (a move or removal of an obstacle added live needs the obstacle), not as it was
+// when the replay started. Those due before the same step are submitted in the recording's order,
+// so they take effect in the same order as when all were queued up front.
+class CommandFeed {
+ public:
+  explicit CommandFeed(std::vector<Command> commands) : commands_(std::move(commands)) {}
+
+  /// Submits the commands due before the driver's next step; `rejected` is told of each the
+  /// driver refuses (as the node did: the recording holds what it applied). The driver keeps its
+  /// timeline from the first call on.
+  void submitDue(SimulationDriver& driver, const std::function<void(const Command&, const Status&)>& rejected) {
+    const double t = driver.simulator().time();
+    const double dt = driver.simulator().settings().dt;
+    if (submitted_.size() != commands_.size()) {
+      for (std::size_t k = 0; k < commands_.size(); ++k) order_.emplace_back(timeOf(driver, commands_[k], dt), k);
+      std::stable_sort(order_.begin(), order_.end(), [](const Entry& a, const Entry& b) { return a.first < b.first; });
+      submitted_.assign(commands_.size(), false);
+    }
+    std::vector<std::size_t> due;
+    // Times placed ahead of the segment they fall in (Timeline::timeOf before reach()) are off by
+    // round-off only: half a step holds every command that can be due now.
+    for (std::size_t k = next_; k < order_.size() && order_[k].first <= t + 0.5 * dt; ++k) {
+      const std::size_t index = order_[k].second;
+      // The driver's own rule (SimulationDriver::applyDue): due at or before t, to 1e-9 dt.
+      if (!submitted_[index] && timeOf(driver, commands_[index], dt) <= t + 1e-9 * dt) due.push_back(index);
+    }
+    std::sort(due.begin(), due.end());
+    for (std::size_t index : due) {
+      submitted_[index] = true;
+      if (Status s = driver.submit(commands_[index]); !s) rejected(commands_[index], s);
+    }
+    while (next_ < order_.size() && submitted_[order_[next_].second]) ++next_;
+  }
+
+ private:
+  using Entry = std::pair<double, std::size_t>;  // (simulation time, index in commands_)
+  // The simulation time a command stands for; -inf for a zero stamp (the next step) and for a
+  // stamp the timeline cannot place: the driver refuses that one, naming it, when submitted.
+  static double timeOf(const SimulationDriver& driver, const Command& c, double dt) {
+    const ros::Time& stamp = headerOf(c).stamp;
+    if (stamp.isZero()) return -std::numeric_limits<double>::infinity();
+    const Expected<double> t = driver.timeline().timeOf(stamp, dt, "header.stamp");
+    return t ? *t : -std::numeric_limits<double>::infinity();
+  }
+
+  std::vector<Command> commands_;
+  std::vector<Entry> order_;
+  std::vector<bool> submitted_;
+  std::size_t next_ = 0;
+};
 
 // How long the run lasts (s): --duration, else up to the last recorded state, the last command
 // + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from the origin, within
@@ -268,14 +320,16 @@ class StateComparison {
 class DriverRun : public DrivenSimulation {
  public:
   DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
-      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document), feed_(run.commands) {
     if (std::optional<Timeline> timeline = runTimeline(run, recordedDt)) driver_.setTimeline(*timeline);
-    // A command the driver rejects was rejected live as well (the recording holds the applied
-    // stream): skipping it is what the node did.
-    for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
   }
   Simulator& simulator() override { return driver_.simulator(); }
-  StepReport step() override { return driver_.step(); }
+  StepReport step() override {
+    // A command the driver rejects was rejected live as well (the recording holds the applied
+    // stream): skipping it is what the node did.
+    feed_.submitDue(driver_, [](const Command&, const Status&) {});
+    return driver_.step();
+  }
 
  private:
   static DriverSettings settingsFor(const RecordedRun& run, double dt) {
@@ -285,6 +339,7 @@ class DriverRun : public DrivenSimulation {
     return settings;
   }
   SimulationDriver driver_;
+  CommandFeed feed_;
 };
 
 class BagRecording : public Recording {
@@ -362,7 +417,14 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   driver.setTimeline(*timeline);
   report.integrator = driver.simulator().integrator().name();
 
-  const ReplaySettings replay = feedRecording(run ? &*run : nullptr, driver, dt, report);
+  const ReplaySettings replay = replaySettings(run ? &*run : nullptr, driver, dt, report);
+  CommandFeed feed(run ? run->commands : std::vector<Command>());
+  auto submitDue = [&]() {
+    feed.submitDue(driver, [&](const Command& c, const Status& s) {
+      ++report.rejected;
+      report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
+    });
+  };
   const std::map<std::uint64_t, std::string>& recorded = replay.recorded;
   Expected<double> duration = replayDuration(options, *scene, replay);
   if (!duration) return Error{duration.error()};
@@ -399,6 +461,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   const auto start = std::chrono::steady_clock::now();
   for (std::uint64_t k = 0; k < total; ++k) {
     const auto t0 = std::chrono::steady_clock::now();
+    submitDue();
     std::string missing;
     if (!driver.transformsReady(&missing)) {
       report.warnings.push_back("step " + std::to_string(k + 1) + ": the bag has no transform for " +

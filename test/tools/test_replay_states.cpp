@@ -1,9 +1,12 @@
 // fem_cloth_sim --commands on copies of the recorded grasp (test/data/small_grasp.bag) changed
 // in known ways, as a user runs it (issue 31): --verify compares the recorded states themselves
-// with the re-simulation, not only their hashes, and refuses damaged ones by name.
+// with the re-simulation, not only their hashes, and refuses damaged ones by name; obstacle
+// commands recorded live (add, then move and remove) replay, each judged against the obstacles
+// as they are when it comes.
 //
 // Every expectation comes from the copy as the test changed it: which state was changed first, by
-// how much (1 m in z), which state holds the NaN or misses a vertex.
+// how much (1 m in z), which state holds the NaN or misses a vertex, which commands were added
+// at which stamps.
 #include <gtest/gtest.h>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
@@ -15,6 +18,7 @@
 
 #include "../run_program.h"
 #include "fem_cloth/ClothState.h"
+#include "fem_cloth/ObstacleCommand.h"
 
 using fem_cloth::ClothState;
 using fem_cloth::test::ProgramResult;
@@ -46,8 +50,9 @@ std::vector<ClothState> fixtureStates() {
 }
 
 // A copy of the fixture in the scratch folder, every message as it was except the states,
-// which `change` may alter (given their index in bag order, from 0).
-std::string changedCopy(const std::string& name, const std::function<void(std::size_t, ClothState&)>& change) {
+// which `change` may alter (given their index in bag order, from 0); `more` may add messages.
+std::string changedCopy(const std::string& name, const std::function<void(std::size_t, ClothState&)>& change,
+                        const std::function<void(rosbag::Bag&)>& more = nullptr) {
   const std::string path = scratch().path(name);
   rosbag::Bag in(kFixture);
   rosbag::Bag out(path, rosbag::bagmode::Write);
@@ -61,6 +66,7 @@ std::string changedCopy(const std::string& name, const std::function<void(std::s
     change(index++, s);
     out.write(m.getTopic(), m.getTime(), s);
   }
+  if (more) more(out);
   return path;
 }
 
@@ -176,5 +182,52 @@ TEST(VerifyStates, RecordedVelocitiesAreComparedToo) {
   for (const std::string& word : {std::string("recorded state 41 of "), std::string("damaged"),
                                   std::string("3 velocities for the 81 vertices")}) {
     EXPECT_NE(d.err.find(word), std::string::npos) << "expected '" << word << "' in: " << d.err;
+  }
+}
+
+// A ball added live, then moved and removed (~applied_obstacle at the stamps of states 10, 20 and
+// 30, as the node records them): the node took the move and the removal because the ball was
+// there by then, and so does the replay. The ball is 5 m from the cloth, which stays within 2 m of
+// the origin, so the run is otherwise the recorded one.
+TEST(ReplayObstacles, AnObstacleAddedLiveIsMovedAndRemovedInTheReplay) {
+  using fem_cloth::ObstacleCommand;
+  const std::vector<ClothState> states = fixtureStates();
+  ASSERT_GT(states.size(), 30u);
+  struct Edit {
+    std::uint8_t action;
+    const char* entry;
+    std::size_t state;
+  };
+  const std::vector<Edit> edits = {{ObstacleCommand::ADD, "{type: sphere, center: [5, 5, 5], radius: 0.1}", 10},
+                                   {ObstacleCommand::MOVE, "{center: [5, 5, 6]}", 20},
+                                   {ObstacleCommand::REMOVE, "", 30}};
+  const std::string topic = "/fem_cloth_node/applied_obstacle";
+  const std::string bag = changedCopy("ball.bag", [](std::size_t, ClothState&) {}, [&](rosbag::Bag& out) {
+    for (const Edit& e : edits) {
+      ObstacleCommand c;
+      c.header.stamp = states[e.state].header.stamp;
+      c.action = e.action;
+      c.name = "ball";
+      c.entry = e.entry;
+      out.write(topic, c.header.stamp, c);
+    }
+  });
+  const std::string replayed = scratch().path("ball_replayed.bag");
+  const ProgramResult r = sim({"--commands", bag, "--out", replayed, "-q"});
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("3 obstacle"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("), 0 rejected"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("no obstacle named"), std::string::npos) << r.err;
+  // The replay applied all three, in order, at the steps they were recorded at.
+  std::vector<ObstacleCommand> applied;
+  rosbag::Bag out(replayed);
+  for (const rosbag::MessageInstance& m : rosbag::View(out, rosbag::TopicQuery(topic))) {
+    applied.push_back(*m.instantiate<ObstacleCommand>());
+  }
+  ASSERT_EQ(applied.size(), edits.size());
+  for (std::size_t k = 0; k < edits.size(); ++k) {
+    EXPECT_EQ(applied[k].action, edits[k].action) << k;
+    EXPECT_EQ(applied[k].name, "ball") << k;
+    EXPECT_EQ(applied[k].header.stamp, states[edits[k].state].header.stamp) << k;
   }
 }
