@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <array>
 #include <map>
+#include <sstream>
 
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/io/output_file.h"
@@ -218,17 +219,15 @@ Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node
   }
 }
 
-Expected<RecordedRun> readRun(const std::string& path, const std::string& node) {
-  const QuietConsole quiet;
+namespace {
+
+// Opens the bag at `path` for reading; the error names what is wrong with it.
+Status openBag(rosbag::Bag& bag, const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) return Error{"no bag at '" + path + "'"};
   if (!std::filesystem::is_regular_file(path, ec)) {
     return Error{"'" + path + "' is not a bag: not a regular file"};
   }
-  const RunTopics topics(node);
-  RecordedRun run;
-  run.path = path;
-  rosbag::Bag bag;
   try {
     bag.open(path, rosbag::bagmode::Read);
   } catch (const rosbag::BagUnindexedException&) {
@@ -243,6 +242,18 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     // garbled length).
     return Error{"cannot read bag '" + path + "': " + e.what()};
   }
+  return Status::success();
+}
+
+}  // namespace
+
+Expected<RecordedRun> readRun(const std::string& path, const std::string& node) {
+  const QuietConsole quiet;
+  const RunTopics topics(node);
+  RecordedRun run;
+  run.path = path;
+  rosbag::Bag bag;
+  if (Status s = openBag(bag, path); !s) return Error{s.error()};
   try {
     rosbag::View view(bag);
     if (view.size() == 0) return Error{"bag '" + path + "' holds no messages"};
@@ -263,6 +274,69 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     return Error{"bag '" + path + "' is truncated or damaged: " + e.what()};
   }
   return run;
+}
+
+Expected<std::unique_ptr<StateReader>> StateReader::open(const std::string& path, const std::string& node) {
+  const QuietConsole quiet;
+  std::unique_ptr<StateReader> reader(new StateReader());
+  reader->path_ = path;
+  if (Status s = openBag(reader->bag_, path); !s) return Error{s.error()};
+  try {
+    reader->view_ = std::make_unique<rosbag::View>(reader->bag_, rosbag::TopicQuery(RunTopics(node).state));
+    reader->count_ = reader->view_->size();
+    reader->it_ = reader->view_->begin();
+  } catch (const std::exception& e) {
+    return Error{"bag '" + path + "' is truncated or damaged: " + e.what()};
+  }
+  return reader;
+}
+
+Expected<bool> StateReader::next(ClothState& state) {
+  const QuietConsole quiet;
+  try {
+    if (it_ == view_->end()) return false;
+    boost::shared_ptr<ClothState> msg = it_->instantiate<ClothState>();
+    ++read_;
+    ++it_;
+    if (!msg) return Error{"bag '" + path_ + "': state " + std::to_string(read_) + " is not a fem_cloth/ClothState"};
+    state = std::move(*msg);
+  } catch (const std::exception& e) {
+    return Error{"bag '" + path_ + "' is truncated or damaged at state " + std::to_string(read_ + 1) + ": " + e.what()};
+  }
+  return true;
+}
+
+std::string StateReader::name(const ClothState& state) const {
+  std::ostringstream stamp;
+  stamp << state.header.stamp;
+  return "recorded state " + std::to_string(read_) + " of " + std::to_string(count_) + " (step " +
+         std::to_string(state.step) + ", stamp " + stamp.str() + " s)";
+}
+
+namespace {
+
+// Why `values` (points or vectors) cannot be one per vertex of a cloth of `vertices` vertices.
+template <class V>
+std::string perVertexProblem(const std::vector<V>& values, std::size_t vertices, const char* what,
+                             const char* plural) {
+  if (values.size() != vertices) {
+    return "it holds " + std::to_string(values.size()) + " " + plural + " for the " + std::to_string(vertices) +
+           " vertices of the cloth";
+  }
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(values[i].x) || !std::isfinite(values[i].y) || !std::isfinite(values[i].z)) {
+      return "the " + std::string(what) + " of vertex " + std::to_string(i) + " is not finite";
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string stateDamage(const ClothState& state, std::size_t vertices) {
+  std::string why = perVertexProblem(state.positions, vertices, "position", "positions");
+  if (why.empty() && !state.velocities.empty()) why = perVertexProblem(state.velocities, vertices, "velocity", "velocities");
+  return why;
 }
 
 std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt) {

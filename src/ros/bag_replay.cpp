@@ -3,10 +3,14 @@
 #include <std_msgs/String.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <functional>
+#include <limits>
 #include <map>
 
 #include "fem_cloth/io/output_file.h"
@@ -85,7 +89,7 @@ Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) {
   return *timeline;
 }
 
-// What a replay takes from its recording once the driver holds the recorded commands.
+// What a replay takes from its recording.
 struct ReplaySettings {
   std::map<std::uint64_t, std::string> recorded;  ///< step -> state hash
   double lastRecorded = 0.0;  ///< s: the last recorded state's step x dt (0: none)
@@ -95,9 +99,9 @@ struct ReplaySettings {
   ros::Time reference;  ///< the start of the recording (0 without one)
 };
 
-// Submits every recorded command up front (the driver applies each at its stamp), counting them
-// and the rejected ones (rejected live as well) in `report`.
-ReplaySettings feedRecording(const RecordedRun* run, SimulationDriver& driver, double dt, BagRunReport& report) {
+// What the replay of `run` takes from it, counting its commands per topic in `report` (the
+// CommandFeed submits them).
+ReplaySettings replaySettings(const RecordedRun* run, const SimulationDriver& driver, double dt, BagRunReport& report) {
   ReplaySettings settings;
   settings.origin = driver.timeline().origin();
   if (run == nullptr) return settings;
@@ -107,15 +111,64 @@ ReplaySettings feedRecording(const RecordedRun* run, SimulationDriver& driver, d
   for (const Command& c : run->commands) {
     ++report.commands[static_cast<std::size_t>(topicOf(c))];
     settings.lastCommand = std::max(settings.lastCommand, secondsBetween(headerOf(c).stamp, settings.origin));
-    if (Status s = driver.submit(c); !s) {
-      ++report.rejected;
-      report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
-    }
   }
   for (const RecordedState& s : run->states) settings.recorded[s.step] = s.hash;
   if (!settings.recorded.empty()) settings.lastRecorded = static_cast<double>(settings.recorded.rbegin()->first) * dt;
   return settings;
 }
+
+// The recorded commands, each submitted to the driver just before the step it takes effect
+// before, as the node had received it by then: the driver judges it against the scene as it is
+// at that moment (a move or removal of an obstacle added live needs the obstacle), not as it was
+// when the replay started. Those due before the same step are submitted in the recording's order,
+// so they take effect in the same order as when all were queued up front.
+class CommandFeed {
+ public:
+  explicit CommandFeed(std::vector<Command> commands) : commands_(std::move(commands)) {}
+
+  /// Submits the commands due before the driver's next step; `rejected` is told of each the
+  /// driver refuses (as the node did: the recording holds what it applied). The driver keeps its
+  /// timeline from the first call on.
+  void submitDue(SimulationDriver& driver, const std::function<void(const Command&, const Status&)>& rejected) {
+    const double t = driver.simulator().time();
+    const double dt = driver.simulator().settings().dt;
+    if (submitted_.size() != commands_.size()) {
+      for (std::size_t k = 0; k < commands_.size(); ++k) order_.emplace_back(timeOf(driver, commands_[k], dt), k);
+      std::stable_sort(order_.begin(), order_.end(), [](const Entry& a, const Entry& b) { return a.first < b.first; });
+      submitted_.assign(commands_.size(), false);
+    }
+    std::vector<std::size_t> due;
+    // Times placed ahead of the segment they fall in (Timeline::timeOf before reach()) are off by
+    // round-off only: half a step holds every command that can be due now.
+    for (std::size_t k = next_; k < order_.size() && order_[k].first <= t + 0.5 * dt; ++k) {
+      const std::size_t index = order_[k].second;
+      // The driver's own rule (SimulationDriver::applyDue): due at or before t, to 1e-9 dt.
+      if (!submitted_[index] && timeOf(driver, commands_[index], dt) <= t + 1e-9 * dt) due.push_back(index);
+    }
+    std::sort(due.begin(), due.end());
+    for (std::size_t index : due) {
+      submitted_[index] = true;
+      if (Status s = driver.submit(commands_[index]); !s) rejected(commands_[index], s);
+    }
+    while (next_ < order_.size() && submitted_[order_[next_].second]) ++next_;
+  }
+
+ private:
+  using Entry = std::pair<double, std::size_t>;  // (simulation time, index in commands_)
+  // The simulation time a command stands for; -inf for a zero stamp (the next step) and for a
+  // stamp the timeline cannot place: the driver refuses that one, naming it, when submitted.
+  static double timeOf(const SimulationDriver& driver, const Command& c, double dt) {
+    const ros::Time& stamp = headerOf(c).stamp;
+    if (stamp.isZero()) return -std::numeric_limits<double>::infinity();
+    const Expected<double> t = driver.timeline().timeOf(stamp, dt, "header.stamp");
+    return t ? *t : -std::numeric_limits<double>::infinity();
+  }
+
+  std::vector<Command> commands_;
+  std::vector<Entry> order_;
+  std::vector<bool> submitted_;
+  std::size_t next_ = 0;
+};
 
 // How long the run lasts (s): --duration, else up to the last recorded state, the last command
 // + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from the origin, within
@@ -152,18 +205,131 @@ void writeApplied(SimulationDriver& driver, const RunTopics& topics, RunWriter& 
   });
 }
 
+// Refuses a bag with a recorded state that cannot be a state of a cloth of `vertices` vertices,
+// naming it, before any work.
+Status checkRecordedStates(const std::string& path, const std::string& node, std::size_t vertices) {
+  Expected<std::unique_ptr<StateReader>> reader = StateReader::open(path, node);
+  if (!reader) return Error{reader.error()};
+  ClothState state;
+  for (;;) {
+    const Expected<bool> got = (*reader)->next(state);
+    if (!got) return Error{got.error()};
+    if (!*got) return Status::success();
+    if (const std::string why = stateDamage(state, vertices); !why.empty()) {
+      return Error{"bag '" + path + "': " + (*reader)->name(state) + " is damaged: " + why};
+    }
+  }
+}
+
+bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// How far apart two lists of points or vectors are: the largest distance (and its vertex), and
+// whether every coordinate has the same bits.
+struct VertexDifference {
+  bool sameBits = true;
+  double largest = 0.0;
+  std::size_t vertex = 0;
+};
+
+template <class V>
+VertexDifference vertexDifference(const std::vector<V>& recorded, const std::vector<V>& simulated) {
+  VertexDifference d;
+  for (std::size_t i = 0; i < recorded.size() && i < simulated.size(); ++i) {
+    const V& a = recorded[i];
+    const V& b = simulated[i];
+    d.sameBits = d.sameBits && sameBits(a.x, b.x) && sameBits(a.y, b.y) && sameBits(a.z, b.z);
+    const double distance = std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+    if (distance > d.largest) {
+      d.largest = distance;
+      d.vertex = i;
+    }
+  }
+  return d;
+}
+
+// The recorded states, compared in bag order with the re-simulation's as it reaches their steps.
+class StateComparison {
+ public:
+  static Expected<StateComparison> open(const std::string& path, const std::string& node) {
+    Expected<std::unique_ptr<StateReader>> reader = StateReader::open(path, node);
+    if (!reader) return Error{reader.error()};
+    StateComparison comparison(std::move(reader).value());
+    FEM_CLOTH_CHECK(comparison.advance());
+    return comparison;
+  }
+  std::size_t count() const { return reader_->count(); }
+
+  /// Compares every recorded state of the driver's step with its state, counting in `report`.
+  /// States of steps the replay went past without them are not compared.
+  Status compare(const SimulationDriver& driver, BagRunReport& report) {
+    const std::uint64_t step = driver.stepIndex();
+    while (has_ && next_.step < step) FEM_CLOTH_CHECK(advance());
+    if (!has_ || next_.step != step) return Status::success();
+    const ClothState simulated = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), true);
+    while (has_ && next_.step == step) {
+      judge(simulated, report);
+      FEM_CLOTH_CHECK(advance());
+    }
+    return Status::success();
+  }
+
+ private:
+  explicit StateComparison(std::unique_ptr<StateReader> reader) : reader_(std::move(reader)) {}
+  Status advance() {
+    const Expected<bool> got = reader_->next(next_);
+    if (!got) return Error{got.error()};
+    has_ = *got;
+    return Status::success();
+  }
+
+  void judge(const ClothState& simulated, BagRunReport& report) const {
+    ++report.compared;
+    const VertexDifference x = vertexDifference(next_.positions, simulated.positions);
+    const bool withVelocities = !next_.velocities.empty();
+    const VertexDifference v = withVelocities ? vertexDifference(next_.velocities, simulated.velocities) : VertexDifference();
+    report.maxPositionDifference = std::max(report.maxPositionDifference, x.largest);
+    report.maxVelocityDifference = std::max(report.maxVelocityDifference, v.largest);
+    const bool sameHash = next_.state_hash == simulated.state_hash;
+    if (x.sameBits && v.sameBits && sameHash) {
+      ++report.identical;
+      return;
+    }
+    if (!report.firstDifference.empty()) return;
+    report.firstMismatch = next_.step;
+    std::vector<std::string> parts;
+    if (!x.sameBits) {
+      parts.push_back("positions differ by up to " + numberText(x.largest) + " m (vertex " + std::to_string(x.vertex) + ")");
+    }
+    if (!v.sameBits) {
+      parts.push_back("velocities differ by up to " + numberText(v.largest) + " m/s (vertex " + std::to_string(v.vertex) + ")");
+    }
+    if (parts.empty()) {
+      parts.push_back(withVelocities ? "positions and velocities agree bit for bit, but the state hash differs (an altered hash)"
+                                     : "positions agree bit for bit, but the state hash differs: the velocities, which "
+                                       "the recording does not hold, differ (or the hash was altered)");
+    }
+    report.firstDifference = reader_->name(next_) + ": " + parts.front() + (parts.size() > 1 ? "; " + parts.back() : "");
+  }
+
+  std::unique_ptr<StateReader> reader_;
+  ClothState next_;
+  bool has_ = false;
+};
+
 // The SimulationDriver fed with a recorded run, as the report steps it.
 class DriverRun : public DrivenSimulation {
  public:
   DriverRun(Simulation simulation, const YAML::Node& document, const RecordedRun& run, double recordedDt)
-      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document) {
+      : driver_(std::move(simulation), settingsFor(run, recordedDt), run.tf.get(), document), feed_(run.commands) {
     if (std::optional<Timeline> timeline = runTimeline(run, recordedDt)) driver_.setTimeline(*timeline);
-    // A command the driver rejects was rejected live as well (the recording holds the applied
-    // stream): skipping it is what the node did.
-    for (const Command& c : run.commands) static_cast<void>(driver_.submit(c));
   }
   Simulator& simulator() override { return driver_.simulator(); }
-  StepReport step() override { return driver_.step(); }
+  StepReport step() override {
+    // A command the driver rejects was rejected live as well (the recording holds the applied
+    // stream): skipping it is what the node did.
+    feed_.submitDue(driver_, [](const Command&, const Status&) {});
+    return driver_.step();
+  }
 
  private:
   static DriverSettings settingsFor(const RecordedRun& run, double dt) {
@@ -173,6 +339,7 @@ class DriverRun : public DrivenSimulation {
     return settings;
   }
   SimulationDriver driver_;
+  CommandFeed feed_;
 };
 
 class BagRecording : public Recording {
@@ -232,17 +399,32 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   DriverSettings settings;
   Expected<Timeline> timeline = replayTimeline(run ? &*run : nullptr, dt);
   if (!timeline) return Error{timeline.error()};
+  std::optional<StateComparison> comparison;
+  if (run) {
+    FEM_CLOTH_CHECK(checkRecordedStates(inBag, options.node, static_cast<std::size_t>(simulation->mesh->numVertices())));
+    Expected<StateComparison> opened = StateComparison::open(inBag, options.node);
+    if (!opened) return Error{opened.error()};
+    comparison.emplace(std::move(opened).value());
+  }
   settings.epoch = timeline->origin();
   if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
+  if (comparison) report.recordedStates = comparison->count();
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   driver.setTimeline(*timeline);
   report.integrator = driver.simulator().integrator().name();
 
-  const ReplaySettings replay = feedRecording(run ? &*run : nullptr, driver, dt, report);
+  const ReplaySettings replay = replaySettings(run ? &*run : nullptr, driver, dt, report);
+  CommandFeed feed(run ? run->commands : std::vector<Command>());
+  auto submitDue = [&]() {
+    feed.submitDue(driver, [&](const Command& c, const Status& s) {
+      ++report.rejected;
+      report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
+    });
+  };
   const std::map<std::uint64_t, std::string>& recorded = replay.recorded;
   Expected<double> duration = replayDuration(options, *scene, replay);
   if (!duration) return Error{duration.error()};
@@ -269,22 +451,17 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     out.write(topics.state, t, state);
     out.write(topics.energy, t, toMsg(driver.header(), driver.stepIndex(), driver.simulator().energies()));
     out.write(topics.stats, t, statsMessage(driver, r, wall, 0.0));
-    auto it = recorded.find(state.step);
-    if (it != recorded.end()) {
-      ++report.compared;
-      if (it->second == state.state_hash) {
-        ++report.identical;
-      } else if (report.compared == report.identical + 1) {
-        report.firstMismatch = state.step;
-      }
-    }
   };
+  // Every recorded state is compared when the replay reaches its step, written or not.
+  auto compare = [&]() { return comparison ? comparison->compare(driver, report) : Status::success(); };
+  FEM_CLOTH_CHECK(compare());
   if (wanted(0)) record(StepReport(), 0.0);
 
   Progress progress(total, options.progress);
   const auto start = std::chrono::steady_clock::now();
   for (std::uint64_t k = 0; k < total; ++k) {
     const auto t0 = std::chrono::steady_clock::now();
+    submitDue();
     std::string missing;
     if (!driver.transformsReady(&missing)) {
       report.warnings.push_back("step " + std::to_string(k + 1) + ": the bag has no transform for " +
@@ -299,6 +476,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
       break;
     }
     ++report.steps;
+    FEM_CLOTH_CHECK(compare());
     if (wanted(driver.stepIndex())) {
       record(r, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }

@@ -10,8 +10,10 @@
 // Exit status: 0 success, 2 bad input (scene, bag, command line, an output that is an input),
 // 3 the simulation failed (the error says why; CSV outputs hold everything up to the last good
 // state, a bag is not written) or an unexpected internal error, 4 with --verify: a recorded state
-// was not reproduced bit for bit. Every error is one line on stderr. Outputs appear under their
-// names only when complete (written to a temporary file next to them, then renamed).
+// was not reproduced bit for bit (its positions, its velocities where recorded, its hash). A
+// damaged recorded state (not finite, not one position per vertex) is bad input. Every error is
+// one line on stderr. Outputs appear under their names only when complete (written to a
+// temporary file next to them, then renamed).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -288,7 +290,9 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   if (r.compared > 0) {
     std::cout << "reproduced:   " << r.identical << " of " << r.compared
               << " recorded states bit for bit";
-    if (r.identical < r.compared) std::cout << " (first difference at step " << r.firstMismatch << ")";
+    std::cout << "; largest difference: positions " << r.maxPositionDifference << " m";
+    if (r.maxVelocityDifference > 0.0) std::cout << ", velocities " << r.maxVelocityDifference << " m/s";
+    if (!r.firstDifference.empty()) std::cout << "; first difference: " << oneLine(r.firstDifference);
     std::cout << '\n';
   }
   std::cout << "energy (J):   kinetic " << r.energy.kinetic << ", strain " << r.energy.strain
@@ -318,8 +322,14 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   }
   std::cout << "output:       " << (opt.out.empty() ? "none (no --out)" : opt.out) << '\n';
   if (opt.verify && r.identical < r.compared) {
-    std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical)
-              << " recorded states were not reproduced\n";
+    std::cerr << "fem_cloth_sim: --verify: " << (r.compared - r.identical) << " of " << r.compared
+              << " recorded states were not reproduced bit for bit; the first is "
+              << oneLine(r.firstDifference) << "; the largest position difference is "
+              << numberText(r.maxPositionDifference) << " m";
+    if (r.maxVelocityDifference > 0.0) {
+      std::cerr << ", the largest velocity difference " << numberText(r.maxVelocityDifference) << " m/s";
+    }
+    std::cerr << '\n';
     return 4;
   }
   if (opt.verify && r.compared == 0) {
@@ -650,7 +660,9 @@ int run(int argc, char** argv) {
                  "else pin/force) at their stamps, follow its /tf; writes --out FILE.bag if given");
   app.add_option("--node", opt.node, "the node whose topics the bags hold (/fem_cloth_node)");
   app.add_flag("--verify", opt.verify,
-               "with --commands: exit 4 unless every recorded state is reproduced bit for bit");
+               "with --commands: exit 4 unless every recorded state is reproduced bit for bit "
+               "(positions, velocities where recorded, state hash); a damaged recorded state "
+               "(not finite, not one position per vertex) is refused with status 2");
   app.add_flag("--no-output", opt.noOutput, "write no files, only the summary");
   app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)");
   app.add_flag("--quiet,-q", opt.quiet, "no progress line");

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <shape_msgs/Mesh.h>
 #include <tf2/buffer_core.h>
 #include <yaml-cpp/yaml.h>
@@ -19,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/ClothState.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/mesh.h"
 #include "fem_cloth/ros/command_queue.h"
@@ -85,6 +87,35 @@ std::optional<ros::Time> runEpoch(const RecordedRun& run, double dt);
 std::optional<Timeline> runTimeline(const RecordedRun& run, double dt);
 /// s: stamps of one segment fit it to the nanosecond; a pause is at least a service call long.
 constexpr double kSegmentTolerance = 1e-6;
+
+/// The recorded states of a run (NS/state), read one after the other in bag order: a replay
+/// checks and compares them as it goes, without holding them all.
+class StateReader {
+ public:
+  /// Errors as readRun's for a bag that cannot be opened.
+  static Expected<std::unique_ptr<StateReader>> open(const std::string& path,
+                                                     const std::string& node = "/fem_cloth_node");
+  /// Reads the next state into `state`: true when there was one, false after the last; an error
+  /// names a message that cannot be read.
+  Expected<bool> next(ClothState& state);
+  std::size_t count() const { return count_; }  ///< states in the bag
+  std::size_t read() const { return read_; }    ///< states read so far: the last one's place, from 1
+  /// The last state read, named for messages: "recorded state K of N (step S, stamp T s)".
+  std::string name(const ClothState& state) const;
+
+ private:
+  StateReader() = default;
+  std::string path_;
+  rosbag::Bag bag_;
+  std::unique_ptr<rosbag::View> view_;
+  rosbag::View::iterator it_;
+  std::size_t count_ = 0, read_ = 0;
+};
+
+/// Why `state` cannot be a state of a cloth of `vertices` vertices (empty when it can): not one
+/// position per vertex, a position that is not finite, velocities recorded but not one per
+/// vertex, or one not finite.
+std::string stateDamage(const ClothState& state, std::size_t vertices);
 
 /// Checks that a mesh stored in a bag is the scene's mesh (same triangles, same rest positions).
 Status checkMeshMatches(const shape_msgs::Mesh& recorded, const Mesh& scene);

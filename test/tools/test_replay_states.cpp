@@ -1,0 +1,233 @@
+// fem_cloth_sim --commands on copies of the recorded grasp (test/data/small_grasp.bag) changed
+// in known ways, as a user runs it (issue 31): --verify compares the recorded states themselves
+// with the re-simulation, not only their hashes, and refuses damaged ones by name; obstacle
+// commands recorded live (add, then move and remove) replay, each judged against the obstacles
+// as they are when it comes.
+//
+// Every expectation comes from the copy as the test changed it: which state was changed first, by
+// how much (1 m in z), which state holds the NaN or misses a vertex, which commands were added
+// at which stamps.
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <regex>
+
+#include "../run_program.h"
+#include "fem_cloth/ClothState.h"
+#include "fem_cloth/ObstacleCommand.h"
+
+using fem_cloth::ClothState;
+using fem_cloth::test::ProgramResult;
+using fem_cloth::test::TempDir;
+
+namespace {
+
+const std::string kSim = FEM_CLOTH_SIM_EXE;
+const std::string kFixture = std::string(FEM_CLOTH_SOURCE_DIR) + "/test/data/small_grasp.bag";
+const std::string kStateTopic = "/fem_cloth_node/state";
+
+const TempDir& scratch() {
+  static const TempDir dir("fem_cloth_test_replay_states");
+  return dir;
+}
+
+ProgramResult sim(const std::vector<std::string>& args) {
+  return fem_cloth::test::runProgramWithin(300, kSim, args, scratch());
+}
+
+// The fixture's states in bag order.
+std::vector<ClothState> fixtureStates() {
+  std::vector<ClothState> states;
+  rosbag::Bag bag(kFixture);
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(kStateTopic))) {
+    states.push_back(*m.instantiate<ClothState>());
+  }
+  return states;
+}
+
+// A copy of the fixture in the scratch folder, every message as it was except the states,
+// which `change` may alter (given their index in bag order, from 0); `more` may add messages.
+std::string changedCopy(const std::string& name, const std::function<void(std::size_t, ClothState&)>& change,
+                        const std::function<void(rosbag::Bag&)>& more = nullptr) {
+  const std::string path = scratch().path(name);
+  rosbag::Bag in(kFixture);
+  rosbag::Bag out(path, rosbag::bagmode::Write);
+  std::size_t index = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+    if (m.getTopic() != kStateTopic) {
+      out.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+      continue;
+    }
+    ClothState s = *m.instantiate<ClothState>();
+    change(index++, s);
+    out.write(m.getTopic(), m.getTime(), s);
+  }
+  if (more) more(out);
+  return path;
+}
+
+// The number after `prefix` in `text` (NaN when there is none).
+double numberAfter(const std::string& text, const std::string& prefix) {
+  const std::size_t at = text.find(prefix);
+  if (at == std::string::npos) return std::numeric_limits<double>::quiet_NaN();
+  return std::strtod(text.c_str() + at + prefix.size(), nullptr);
+}
+
+}  // namespace
+
+// The recording itself verifies: every state the same, bit for bit.
+TEST(VerifyStates, TheRecordingVerifies) {
+  const std::size_t n = fixtureStates().size();
+  ASSERT_GT(n, 60u);
+  const ProgramResult r = sim({"--commands", changedCopy("same.bag", [](std::size_t, ClothState&) {}), "--verify", "-q"});
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find(std::to_string(n) + " of " + std::to_string(n) + " recorded states bit for bit"),
+            std::string::npos)
+      << r.out;
+}
+
+// Every position of every state after step 50 moved up by 1 m, the hashes kept: not the run the
+// simulation makes. The first such state is named, and the difference is 1 m.
+TEST(VerifyStates, StatesMovedWithTheirHashesKeptDoNotVerify) {
+  const std::vector<ClothState> states = fixtureStates();
+  std::size_t first = states.size(), moved = 0;
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    if (states[k].step > 50) {
+      first = std::min(first, k);
+      ++moved;
+    }
+  }
+  ASSERT_LT(first, states.size());
+  const std::string bag = changedCopy("moved.bag", [](std::size_t, ClothState& s) {
+    if (s.step <= 50) return;
+    for (geometry_msgs::Point& p : s.positions) p.z += 1.0;
+  });
+  const ProgramResult r = sim({"--commands", bag, "--verify", "-q"});
+  EXPECT_EQ(r.status, 4) << r.out << r.err;
+  const std::string total = std::to_string(states.size());
+  EXPECT_NE(r.out.find(std::to_string(states.size() - moved) + " of " + total + " recorded states bit for bit"),
+            std::string::npos)
+      << r.out;
+  // Named by its place in the bag (from 1) and its step.
+  const std::string name = "recorded state " + std::to_string(first + 1) + " of " + total + " (step " +
+                           std::to_string(states[first].step);
+  EXPECT_NE(r.err.find(name), std::string::npos) << "expected '" << name << "' in: " << r.err;
+  // 1 m, to the round-off of adding 1 to coordinates below 2 m.
+  EXPECT_NEAR(numberAfter(r.err, "the largest position difference is "), 1.0, 1e-9) << r.err;
+  EXPECT_NEAR(numberAfter(r.err, "positions differ by up to "), 1.0, 1e-9) << r.err;
+}
+
+// A state that is not a state of the scene's cloth is refused as damaged, naming it: a NaN or an
+// infinity in a position, a vertex missing.
+TEST(VerifyStates, DamagedStatesAreRefusedByName) {
+  const std::vector<ClothState> states = fixtureStates();
+  const std::size_t vertices = states.front().positions.size();
+  ASSERT_EQ(vertices, 81u);  // small_cloth.yaml: a 9 x 9 grid
+  struct Case {
+    const char* bag;
+    std::size_t state;  // index in bag order, from 0
+    std::function<void(ClothState&)> damage;
+    std::string what;
+  };
+  const std::vector<Case> cases = {
+      {"nan.bag", 60, [](ClothState& s) { s.positions[5].x = std::nan(""); }, "position of vertex 5 is not finite"},
+      {"inf.bag", 30, [](ClothState& s) { s.positions[80].z = HUGE_VAL; }, "position of vertex 80 is not finite"},
+      {"missing.bag", 70, [](ClothState& s) { s.positions.pop_back(); }, "80 positions for the 81 vertices"},
+  };
+  for (const Case& c : cases) {
+    const std::string bag = changedCopy(c.bag, [&](std::size_t k, ClothState& s) {
+      if (k == c.state) c.damage(s);
+    });
+    const ProgramResult r = sim({"--commands", bag, "--verify", "-q"});
+    EXPECT_EQ(r.status, 2) << c.bag << ": " << r.out << r.err;
+    const std::string name = "recorded state " + std::to_string(c.state + 1) + " of " +
+                             std::to_string(states.size()) + " (step " + std::to_string(states[c.state].step);
+    for (const std::string& word : {std::string(c.bag), name, std::string("damaged"), c.what}) {
+      EXPECT_NE(r.err.find(word), std::string::npos) << c.bag << ": expected '" << word << "' in: " << r.err;
+    }
+  }
+}
+
+// Velocities where the recording holds them decide too. Every state given velocities of zero:
+// the cloth starts at rest, so the state of step 0 agrees, but from the first step on gravity
+// moves every vertex that is not pinned: the first state after step 0 differs in its velocities
+// (only: its positions are the recorded ones). Velocities not one per vertex are damage.
+TEST(VerifyStates, RecordedVelocitiesAreComparedToo) {
+  const std::vector<ClothState> states = fixtureStates();
+  ASSERT_EQ(states.front().step, 0u);
+  std::size_t first = 0;
+  while (first < states.size() && states[first].step == 0) ++first;
+  ASSERT_LT(first, states.size());
+  const std::string still = changedCopy("still.bag", [](std::size_t, ClothState& s) {
+    s.velocities.resize(s.positions.size());
+  });
+  const ProgramResult r = sim({"--commands", still, "--verify", "-q"});
+  EXPECT_EQ(r.status, 4) << r.out << r.err;
+  const std::string name = "recorded state " + std::to_string(first + 1) + " of " + std::to_string(states.size()) +
+                           " (step " + std::to_string(states[first].step) + ", stamp ";
+  EXPECT_NE(r.err.find(name), std::string::npos) << "expected '" << name << "' in: " << r.err;
+  EXPECT_NE(r.err.find("): velocities differ by up to "), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("positions differ"), std::string::npos) << r.err;
+  EXPECT_GT(numberAfter(r.err, "the largest velocity difference "), 0.0) << r.err;
+
+  const std::string short_ = changedCopy("short_velocities.bag", [](std::size_t k, ClothState& s) {
+    if (k == 40) s.velocities.resize(3);
+  });
+  const ProgramResult d = sim({"--commands", short_, "--verify", "-q"});
+  EXPECT_EQ(d.status, 2) << d.out << d.err;
+  for (const std::string& word : {std::string("recorded state 41 of "), std::string("damaged"),
+                                  std::string("3 velocities for the 81 vertices")}) {
+    EXPECT_NE(d.err.find(word), std::string::npos) << "expected '" << word << "' in: " << d.err;
+  }
+}
+
+// A ball added live, then moved and removed (~applied_obstacle at the stamps of states 10, 20 and
+// 30, as the node records them): the node took the move and the removal because the ball was
+// there by then, and so does the replay. The ball is 5 m from the cloth, which stays within 2 m of
+// the origin, so the run is otherwise the recorded one.
+TEST(ReplayObstacles, AnObstacleAddedLiveIsMovedAndRemovedInTheReplay) {
+  using fem_cloth::ObstacleCommand;
+  const std::vector<ClothState> states = fixtureStates();
+  ASSERT_GT(states.size(), 30u);
+  struct Edit {
+    std::uint8_t action;
+    const char* entry;
+    std::size_t state;
+  };
+  const std::vector<Edit> edits = {{ObstacleCommand::ADD, "{type: sphere, center: [5, 5, 5], radius: 0.1}", 10},
+                                   {ObstacleCommand::MOVE, "{center: [5, 5, 6]}", 20},
+                                   {ObstacleCommand::REMOVE, "", 30}};
+  const std::string topic = "/fem_cloth_node/applied_obstacle";
+  const std::string bag = changedCopy("ball.bag", [](std::size_t, ClothState&) {}, [&](rosbag::Bag& out) {
+    for (const Edit& e : edits) {
+      ObstacleCommand c;
+      c.header.stamp = states[e.state].header.stamp;
+      c.action = e.action;
+      c.name = "ball";
+      c.entry = e.entry;
+      out.write(topic, c.header.stamp, c);
+    }
+  });
+  const std::string replayed = scratch().path("ball_replayed.bag");
+  const ProgramResult r = sim({"--commands", bag, "--out", replayed, "-q"});
+  EXPECT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("3 obstacle"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("), 0 rejected"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("no obstacle named"), std::string::npos) << r.err;
+  // The replay applied all three, in order, at the steps they were recorded at.
+  std::vector<ObstacleCommand> applied;
+  rosbag::Bag out(replayed);
+  for (const rosbag::MessageInstance& m : rosbag::View(out, rosbag::TopicQuery(topic))) {
+    applied.push_back(*m.instantiate<ObstacleCommand>());
+  }
+  ASSERT_EQ(applied.size(), edits.size());
+  for (std::size_t k = 0; k < edits.size(); ++k) {
+    EXPECT_EQ(applied[k].action, edits[k].action) << k;
+    EXPECT_EQ(applied[k].name, "ball") << k;
+    EXPECT_EQ(applied[k].header.stamp, states[edits[k].state].header.stamp) << k;
+  }
+}
