@@ -260,7 +260,8 @@ bool ClothNode::start(std::string* error) {
 
 void ClothNode::advertise() {
   meshPub_ = private_.advertise<shape_msgs::Mesh>("mesh", 1, true);
-  statePub_ = private_.advertise<ClothState>("state", 10);
+  // Latched: a subscriber that comes late (to a paused node, say) gets the last state at once.
+  statePub_ = private_.advertise<ClothState>("state", 10, true);
   energyPub_ = private_.advertise<ClothEnergy>("energy", 10);
   statsPub_ = private_.advertise<StepStats>("stats", 10);
   pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
@@ -531,7 +532,9 @@ void ClothNode::publishClock() {
 
 void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool force) {
   const std::uint64_t step = driver_->stepIndex();
-  const bool stateDue = force || step % publishEvery_ == 0;
+  // Never the same state twice (the same step at the same stamp: a failed attempt, a ~resume in
+  // fast mode): the latched one is there for whoever subscribes later.
+  const bool stateDue = (force || step % publishEvery_ == 0) && publishedState_ != std::make_pair(step, driver_->now());
   const bool markerDue = force || step % markerEvery_ == 0;
   if (stateDue) {
     const Simulator& sim = driver_->simulator();
@@ -783,7 +786,7 @@ void ClothNode::stopOnFailure() {
   failedAttempts_ = 0;
   lastProblem_ = stoppedBecause_;
   // The last good state (a failed step leaves it as it was), unless it went out already.
-  if (publishedState_ != std::make_pair(step, driver_->now())) publishOutputs(StepReport(), 0.0, true);
+  publishOutputs(StepReport(), 0.0, true);
   publishDiagnostics(true);
   ROS_ERROR_STREAM("fem_cloth_node: " << stoppedBecause_ << ". The state stays at step " << step
                    << " (t = " << numberText(driver_->simulator().time())
