@@ -47,7 +47,8 @@ const std::vector<std::string>& ClothNode::parameterNames() {
         "scene_file",   "frame_id",      "time_mode",          "real_time_factor",
         "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
         "always_publish", "start_paused", "tf_timeout",        "step_lag",
-        "replay_bag",   "max_pin_jump",  "max_pending_commands", "command_queue_size"};
+        "replay_bag",   "max_pin_jump",  "max_pending_commands", "command_queue_size",
+        "max_failed_attempts"};
     own.insert(own.end(), perceptionParameterNames().begin(), perceptionParameterNames().end());
     return own;
   }();
@@ -132,7 +133,13 @@ bool ClothNode::readParameters(std::string* error) {
 bool ClothNode::readLimits(std::string* error) {
   if (!readParam(private_, "max_pin_jump", maxPinJump_, error, "a number (m)") ||
       !readParam(private_, "max_pending_commands", maxPendingCommands_, error, "an integer") ||
-      !readParam(private_, "command_queue_size", commandQueueSize_, error, "an integer")) {
+      !readParam(private_, "command_queue_size", commandQueueSize_, error, "an integer") ||
+      !readParam(private_, "max_failed_attempts", maxFailedAttempts_, error, "an integer")) {
+    return false;
+  }
+  if (maxFailedAttempts_ < 1) {
+    *error = "parameter ~max_failed_attempts must be >= 1 (attempts at one step), got " +
+             std::to_string(maxFailedAttempts_);
     return false;
   }
   if (!(maxPinJump_ > 0.0)) {
@@ -253,7 +260,8 @@ bool ClothNode::start(std::string* error) {
 
 void ClothNode::advertise() {
   meshPub_ = private_.advertise<shape_msgs::Mesh>("mesh", 1, true);
-  statePub_ = private_.advertise<ClothState>("state", 10);
+  // Latched: a subscriber that comes late (to a paused node, say) gets the last state at once.
+  statePub_ = private_.advertise<ClothState>("state", 10, true);
   energyPub_ = private_.advertise<ClothEnergy>("energy", 10);
   statsPub_ = private_.advertise<StepStats>("stats", 10);
   pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
@@ -394,12 +402,18 @@ void ClothNode::doReset() {
     driver_->setEpoch(ros::Time::now());
   }
   segmentToAnnounce_ = false;
+  stoppedBecause_.clear();
+  failedAttempts_ = 0;
   lastReport_ = StepReport();
   publishOutputs(lastReport_, 0.0, true);
   control_->resetDone();
 }
 
 void ClothNode::restartRealTime() {
+  // ~resume retries the step that stopped the run.
+  if (!stoppedBecause_.empty() && lastProblem_ == stoppedBecause_) lastProblem_ = "resumed after being " + stoppedBecause_;
+  stoppedBecause_.clear();
+  failedAttempts_ = 0;
   // Real time restarts from here: the pause is not made up for. A recorder that subscribed
   // while we were paused gets the current state first.
   dueOrigin_ = ros::Time::now().toSec() - driver_->simulator().time() / realTimeFactor_;
@@ -489,7 +503,8 @@ void ClothNode::stepOnce() {
     ++failedSteps_;
     lastProblem_ = report.error;
     diagnosticsSoon_ = true;
-    error(WarningThrottle::kindOf(report.error), report.error, "failed steps");
+  } else {
+    stoppedBecause_.clear();  // a ~step got past what stopped the run
   }
   // Real-time factor over windows of about a second of wall time.
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
@@ -517,11 +532,14 @@ void ClothNode::publishClock() {
 
 void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool force) {
   const std::uint64_t step = driver_->stepIndex();
-  const bool stateDue = force || step % publishEvery_ == 0;
+  // Never the same state twice (the same step at the same stamp: a failed attempt, a ~resume in
+  // fast mode): the latched one is there for whoever subscribes later.
+  const bool stateDue = (force || step % publishEvery_ == 0) && publishedState_ != std::make_pair(step, driver_->now());
   const bool markerDue = force || step % markerEvery_ == 0;
   if (stateDue) {
     const Simulator& sim = driver_->simulator();
     statePub_.publish(toMsg(driver_->header(), sim.state(), sim.dim(), publishVelocities_));
+    publishedState_ = std::make_pair(step, driver_->now());
     if (wanted(energyPub_)) energyPub_.publish(toMsg(driver_->header(), driver_->stepIndex(), driver_->simulator().energies()));
     if (wanted(statsPub_)) {
       statsPub_.publish(statsMessage(*driver_, report, wallTime, realTimeFactorMeasured_,
@@ -641,6 +659,8 @@ void ClothNode::publishDiagnostics(bool force) {
   add("energy balance", balance.text());
   add("pin jumps", std::to_string(energies.pinJumps));
   if (!balance.ok()) status.message = balance.warning();
+  add("paused by a failing step", stoppedBecause_.empty() ? "false" : "true");
+  if (!stoppedBecause_.empty()) status.message = stoppedBecause_;
   status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
                  : (rejected > 0 || !lastProblem_.empty() || !balance.ok())
                      ? diagnostic_msgs::DiagnosticStatus::WARN
@@ -731,8 +751,48 @@ void ClothNode::turn() {
   stepOnce();
   control_->endStep(driver_->stepIndex(), driver_->simulator().time(),
                     lastReport_.ok ? std::string() : lastReport_.error);
-  // A failing step leaves the state unchanged: do not spin on it.
-  if (!lastReport_.ok && b.running) control_->wait(dt);
+  if (lastReport_.ok) {
+    failedAttempts_ = 0;
+  } else if (!b.running) {
+    // A ~step or ~advance while paused: its caller hears of it; no retry follows.
+    error(WarningThrottle::kindOf(lastReport_.error), lastReport_.error, "failed steps");
+  } else if (!countFailedAttempt()) {
+    // A failing step leaves the state unchanged: do not spin on it.
+    control_->wait(dt);
+  }
+}
+
+bool ClothNode::countFailedAttempt() {
+  if (replayTimeline_) {
+    // A live replay retries until the recorded commands that got the recorded run past this
+    // step come (a ~remove_obstacle, say, made while the recorded run was paused).
+    error(WarningThrottle::kindOf(lastReport_.error), lastReport_.error, "failed steps");
+    return false;
+  }
+  if (++failedAttempts_ == 1) {
+    warn("failed attempt", lastReport_.error + "; retrying the step, up to " +
+         std::to_string(maxFailedAttempts_) + " attempts in all (max_failed_attempts)", "failed attempts");
+  }
+  if (failedAttempts_ < maxFailedAttempts_) return false;
+  stopOnFailure();
+  return true;
+}
+
+void ClothNode::stopOnFailure() {
+  control_->pause();
+  const std::uint64_t step = driver_->stepIndex();
+  stoppedBecause_ = "paused after " + std::to_string(failedAttempts_) +
+                    " failed attempts at the same step (max_failed_attempts): " + lastReport_.error;
+  failedAttempts_ = 0;
+  lastProblem_ = stoppedBecause_;
+  // The last good state (a failed step leaves it as it was), unless it went out already.
+  publishOutputs(StepReport(), 0.0, true);
+  publishDiagnostics(true);
+  ROS_ERROR_STREAM("fem_cloth_node: " << stoppedBecause_ << ". The state stays at step " << step
+                   << " (t = " << numberText(driver_->simulator().time())
+                   << " s), published on ~state. To go on, remove the cause (an obstacle in the "
+                      "cloth: ~remove_obstacle or ~move_obstacle; a pin: release or move it) and "
+                      "call ~resume to retry the step, or ~reset to start over");
 }
 
 void ClothNode::run() {

@@ -27,6 +27,8 @@
 //   max_pending_commands int  commands that may wait to be checked, and checked ones that may
 //                             wait for their stamp; more are refused (10000)
 //   command_queue_size int    roscpp subscriber queue of ~pin and ~force (1000)
+//   max_failed_attempts int   failed attempts at one step after which a running node pauses
+//                             itself and says why (10; not in a live replay)
 // and the perception parameters (point cloud, camera, tf frames, marker look: perception.h).
 //
 // Threads: roscpp's spinners run the callbacks, which only hand commands to a CommandInbox and
@@ -108,6 +110,12 @@ class ClothNode {
   bool transformsReady();
   /// One step and its outputs.
   void stepOnce();
+  /// After a step taken while running: counts a failed attempt at the same step (warning on the
+  /// first); true when the node has paused itself, at max_failed_attempts (stopOnFailure()).
+  bool countFailedAttempt();
+  /// Pauses the node on the step that keeps failing: the last good state out, an ERROR on
+  /// /diagnostics with the cause, one ERROR line saying how to go on.
+  void stopOnFailure();
   /// /clock at the simulation time (fast mode only).
   void publishClock();
   /// The real-time factor is measured from here (start, reset, resume, each ~1 s window).
@@ -155,6 +163,7 @@ class ClothNode {
   std::optional<Timeline> replayTimeline_;  // the recorded run's, replayed live
   double maxPinJump_ = 1.0;
   int maxPendingCommands_ = 10000, commandQueueSize_ = 1000;
+  int maxFailedAttempts_ = 10;
 
   // Run state (the run loop's).
   std::uint64_t publishEvery_ = 1, markerEvery_ = 1;
@@ -167,6 +176,10 @@ class ClothNode {
   double stepWallTime_ = 0.0;
   StepReport lastReport_;
   std::uint64_t failedSteps_ = 0;
+  int failedAttempts_ = 0;      // failed attempts in a row at the current step while running
+  std::string stoppedBecause_;  // while paused by a failing step: why (the core's refusal)
+  // The step index and stamp of the state last published on ~state (none before the first).
+  std::optional<std::pair<std::uint64_t, ros::Time>> publishedState_;
   std::array<std::uint64_t, kCommandTopics> inboxRefusalsTold_{};
   std::string lastProblem_;
   ros::WallTime lastDiagnostics_;
