@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
 
 #include "fem_cloth/io/scene_yaml.h"
@@ -31,6 +32,13 @@ std::uint64_t everyFor(double rate, double dt) {
   return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(1.0 / (rate * dt))));
 }
 
+// `v` with `digits` decimals: lags and lengths of time in messages ("12.30", not "12.3012345").
+std::string fixedText(double v, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << v;
+  return out.str();
+}
+
 // A frame name as a part of a topic name: characters a ROS name cannot hold become '_'.
 std::string topicSafe(const std::string& frame) {
   std::string out;
@@ -48,7 +56,8 @@ const std::vector<std::string>& ClothNode::parameterNames() {
         "start_time",   "publish_rate",  "marker_rate",        "publish_velocities",
         "always_publish", "start_paused", "tf_timeout",        "step_lag",
         "replay_bag",   "max_pin_jump",  "max_pending_commands", "command_queue_size",
-        "max_failed_attempts"};
+        "max_failed_attempts", "tf_cache_time", "max_lag", "lag_policy", "frame_wait_timeout",
+        "test_step_delay"};
     own.insert(own.end(), perceptionParameterNames().begin(), perceptionParameterNames().end());
     return own;
   }();
@@ -83,6 +92,11 @@ bool ClothNode::readParameters(std::string* error) {
   }
   if (!(stepLag_ >= 0.0)) {
     *error = "parameter ~step_lag must be >= 0 s";
+    return false;
+  }
+  if (!(stepLag_ < maxLag_)) {
+    *error = "parameter ~step_lag (" + numberText(stepLag_) + " s) must be below ~max_lag (" + numberText(maxLag_) +
+             " s): a lag kept on purpose would pause the node";
     return false;
   }
   if (private_.hasParam("start_time")) {
@@ -134,7 +148,8 @@ bool ClothNode::readLimits(std::string* error) {
   if (!readParam(private_, "max_pin_jump", maxPinJump_, error, "a number (m)") ||
       !readParam(private_, "max_pending_commands", maxPendingCommands_, error, "an integer") ||
       !readParam(private_, "command_queue_size", commandQueueSize_, error, "an integer") ||
-      !readParam(private_, "max_failed_attempts", maxFailedAttempts_, error, "an integer")) {
+      !readParam(private_, "max_failed_attempts", maxFailedAttempts_, error, "an integer") ||
+      !readLagLimits(error)) {
     return false;
   }
   if (maxFailedAttempts_ < 1) {
@@ -154,8 +169,45 @@ bool ClothNode::readLimits(std::string* error) {
   return true;
 }
 
+bool ClothNode::readLagLimits(std::string* error) {
+  std::string policy = "pause";
+  if (!readParam(private_, "tf_cache_time", tfCacheTime_, error, "a number (s)") ||
+      !readParam(private_, "max_lag", maxLag_, error, "a number (s)") ||
+      !readParam(private_, "lag_policy", policy, error, "a string (pause or warn)") ||
+      !readParam(private_, "frame_wait_timeout", frameWaitTimeout_, error, "a number (s)") ||
+      !readParam(private_, "test_step_delay", testStepDelay_, error, "a number (s)")) {
+    return false;
+  }
+  if (policy != "pause" && policy != "warn") {
+    *error = "parameter ~lag_policy must be pause or warn, got '" + policy + "'";
+    return false;
+  }
+  lagPolicyPause_ = policy == "pause";
+  for (const auto& [name, value] : {std::make_pair("tf_cache_time", tfCacheTime_), std::make_pair("max_lag", maxLag_),
+                                    std::make_pair("frame_wait_timeout", frameWaitTimeout_)}) {
+    if (!(value > 0.0) || !checkedDuration(value, name).ok()) {
+      *error = std::string("parameter ~") + name + " must be a positive number of seconds, got " + numberText(value);
+      return false;
+    }
+  }
+  if (!(testStepDelay_ >= 0.0) || !(testStepDelay_ <= 10.0)) {
+    *error = "parameter ~test_step_delay must be between 0 and 10 s, got " + numberText(testStepDelay_);
+    return false;
+  }
+  // A step at a lag below max_lag must find its transforms in tf, with tf_timeout to spare (a
+  // frame's newest transform may be that old, and tf prunes from it while the step runs).
+  if (!(maxLag_ < tfCacheTime_ - tfTimeout_)) {
+    *error = "parameter ~max_lag (" + numberText(maxLag_) + " s) must be below ~tf_cache_time (" +
+             numberText(tfCacheTime_) + " s) minus ~tf_timeout (" + numberText(tfTimeout_) +
+             " s): tf must still hold the transforms of a step taken that far behind ROS time";
+    return false;
+  }
+  return true;
+}
+
 bool ClothNode::start(std::string* error) {
   if (!readParameters(error)) return false;
+  tfBuffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(tfCacheTime_));
   std::string sourcePath;
   std::optional<RecordedRun> replay;
   if (!replayBag_.empty()) {
@@ -212,16 +264,16 @@ bool ClothNode::start(std::string* error) {
   settings.maxPinJump = maxPinJump_;
   settings.maxPendingCommands = static_cast<std::size_t>(maxPendingCommands_);
   const double dt = scene->dt;
-  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), settings, &tfBuffer_, *doc);
+  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), settings, tfBuffer_.get(), *doc);
   publishEvery_ = everyFor(publishRate_, dt);
   markerEvery_ = everyFor(markerRate_, dt);
   control_ = std::make_unique<RunControl>(startPaused_, dt);
   inbox_ = std::make_unique<CommandInbox>(static_cast<std::size_t>(maxPendingCommands_));
   tfWait_ = std::make_unique<TransformWait>(tfTimeout_, [this](const std::string& frame) {
-    return newestTransform(tfBuffer_, frame_, frame);
+    return newestTransform(*tfBuffer_, frame_, frame);
   });
 
-  tfIntake_ = std::make_unique<TfIntake>(node_, tfBuffer_);
+  tfIntake_ = std::make_unique<TfIntake>(node_, *tfBuffer_);
   // Perception outputs (perception.h): ~points, ~camera/*, ~marker and tf frames.
   PerceptionSettings perception;
   perception.frame = frame_;
@@ -230,7 +282,7 @@ bool ClothNode::start(std::string* error) {
   perception.clothFrames = replayBag_.empty();
   if (!readPerceptionParameters(private_, perception, error)) return false;
   Expected<std::unique_ptr<PerceptionOutputs>> outputs =
-      PerceptionOutputs::create(private_, *driver_, *scene, tfBuffer_, std::move(perception));
+      PerceptionOutputs::create(private_, *driver_, *scene, *tfBuffer_, std::move(perception));
   if (!outputs) {
     *error = outputs.error();
     return false;
@@ -403,6 +455,9 @@ void ClothNode::doReset() {
   }
   segmentToAnnounce_ = false;
   stoppedBecause_.clear();
+  pausedBecause_.clear();
+  pausedByLag_ = false;
+  frameWaitSince_.reset();
   failedAttempts_ = 0;
   lastReport_ = StepReport();
   publishOutputs(lastReport_, 0.0, true);
@@ -412,7 +467,11 @@ void ClothNode::doReset() {
 void ClothNode::restartRealTime() {
   // ~resume retries the step that stopped the run.
   if (!stoppedBecause_.empty() && lastProblem_ == stoppedBecause_) lastProblem_ = "resumed after being " + stoppedBecause_;
+  if (!pausedBecause_.empty() && lastProblem_ == pausedBecause_) lastProblem_ = "resumed after: " + pausedBecause_;
   stoppedBecause_.clear();
+  pausedBecause_.clear();
+  pausedByLag_ = false;
+  frameWaitSince_.reset();  // a new wait of frame_wait_timeout
   failedAttempts_ = 0;
   // Real time restarts from here: the pause is not made up for. A recorder that subscribed
   // while we were paused gets the current state first.
@@ -483,6 +542,7 @@ bool ClothNode::transformsReady() {
 
 void ClothNode::stepOnce() {
   const ros::WallTime begin = ros::WallTime::now();
+  if (testStepDelay_ > 0.0) ros::WallDuration(testStepDelay_).sleep();  // a slow step, for tests
   lastReport_ = driver_->step();
   const StepReport& report = lastReport_;
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
@@ -528,6 +588,97 @@ void ClothNode::publishClock() {
   rosgraph_msgs::Clock clock;
   clock.clock = driver_->now();
   clockPub_.publish(clock);
+  lastClock_ = ros::WallTime::now();
+}
+
+void ClothNode::keepClockGoing() {
+  // As Gazebo does while paused: a node on simulation time that starts (or subscribes) later gets
+  // a time within 0.1 s, and tf publishers on it (robot_state_publisher) start.
+  if (timeMode_ == TimeMode::Fast && (ros::WallTime::now() - lastClock_).toSec() >= 0.1) publishClock();
+}
+
+double ClothNode::lag() const {
+  if (timeMode_ != TimeMode::RealTime) return 0.0;
+  return secondsBetween(ros::Time::now(), driver_->now());
+}
+
+std::vector<std::string> ClothNode::followedFrames() const {
+  std::vector<std::string> frames = driver_->pins().frames();
+  if (const ObstacleSet* obstacles = driver_->simulator().obstacles()) {
+    for (std::size_t k = 0; k < obstacles->size(); ++k) {
+      const std::string& f = (*obstacles)[k].frame;
+      if (!f.empty() && std::find(frames.begin(), frames.end(), f) == frames.end()) frames.push_back(f);
+    }
+  }
+  return frames;
+}
+
+bool ClothNode::lagAllowsStep() {
+  // A live replay keeps the recording's times: its lag is reported, not acted on.
+  if (timeMode_ != TimeMode::RealTime || replayTimeline_) return true;
+  const double behind = lag(), wall = tfCacheTime_ - tfTimeout_;
+  const std::string where = "the node is " + fixedText(behind, 2) + " s behind ROS time; tf keeps " +
+                            numberText(tfCacheTime_) + " s (tf_cache_time)";
+  if (behind > maxLag_ && lagPolicyPause_) {
+    pauseBecause(where + ", and max_lag is " + numberText(maxLag_) + " s (lag_policy pause)", true);
+    return false;
+  }
+  const std::vector<std::string> frames = followedFrames();
+  if (behind > wall && !frames.empty()) {
+    pauseBecause(where + ": the transforms of frame '" + frames.front() + "' for its next step would be gone "
+                 "within tf_timeout (lag_policy warn pauses at tf_cache_time - tf_timeout = " + numberText(wall) +
+                 " s rather than step with another time's transforms)", true);
+    return false;
+  }
+  if (behind > maxLag_) {
+    lastProblem_ = where + ", more than max_lag = " + numberText(maxLag_) + " s (lag_policy warn)";
+    diagnosticsSoon_ = true;
+    warn("lag", lastProblem_, "lag warnings");
+  }
+  return true;
+}
+
+void ClothNode::pauseBecause(const std::string& why, bool lag) {
+  control_->pause();
+  pausedBecause_ = why;
+  pausedByLag_ = lag;
+  lastProblem_ = why;
+  publishDiagnostics(true);
+  ROS_WARN_STREAM("fem_cloth_node: paused: " << why << ". The state stays at step " << driver_->stepIndex()
+                  << " (t = " << numberText(driver_->simulator().time()) << " s); ~resume goes on from ROS "
+                  "time now (what the node fell behind is not made up for), ~reset starts over");
+}
+
+bool ClothNode::followedFramesArrived() {
+  framesWaitedFor_.clear();
+  for (const std::string& f : followedFrames()) {
+    if (!newestTransform(*tfBuffer_, frame_, f)) framesWaitedFor_.push_back(f);
+  }
+  if (framesWaitedFor_.empty()) {
+    // In real_time mode the run starts now, not when the node began to wait (which would count
+    // as lag).
+    if (frameWaitSince_ && timeMode_ == TimeMode::RealTime && !replayTimeline_) {
+      if (!hasStartTime_) driver_->setEpoch(ros::Time::now());
+      dueOrigin_ = ros::Time::now().toSec();
+      restartRealTimeFactorWindow();
+    }
+    frameWaitSince_.reset();
+    return true;
+  }
+  std::string names;
+  for (const std::string& f : framesWaitedFor_) names += (names.empty() ? "'" : ", '") + f + "'";
+  const ros::WallTime now = ros::WallTime::now();
+  if (!frameWaitSince_) {
+    frameWaitSince_ = now;
+    ROS_INFO_STREAM("fem_cloth_node: waiting up to " << numberText(frameWaitTimeout_) << " s (frame_wait_timeout) "
+                    "for the tf frames the scene follows before the first step: " << names);
+  }
+  if ((now - *frameWaitSince_).toSec() < frameWaitTimeout_) return false;
+  pauseBecause("no transform of frame(s) " + names + ", which the scene follows, came within frame_wait_timeout = " +
+               numberText(frameWaitTimeout_) + " s before the first step (is their publisher running" +
+               std::string(timeMode_ == TimeMode::Fast ? ", on this node's /clock" : "") +
+               "?): not stepping without them; publish them and call ~resume", false);
+  return false;
 }
 
 void ClothNode::publishOutputs(const StepReport& report, double wallTime, bool force) {
@@ -661,8 +812,18 @@ void ClothNode::publishDiagnostics(bool force) {
   if (!balance.ok()) status.message = balance.warning();
   add("paused by a failing step", stoppedBecause_.empty() ? "false" : "true");
   if (!stoppedBecause_.empty()) status.message = stoppedBecause_;
+  // The lag and how far back tf reaches (docs/node.md, Robot in the loop).
+  add("lag (s)", fixedText(lag(), 3));
+  add("tf cache (s)", numberText(tfCacheTime_));
+  add("max lag (s)", numberText(maxLag_));
+  add("lag policy", lagPolicyPause_ ? "pause" : "warn");
+  add("paused by lag", pausedByLag_ ? "true" : "false");
+  std::string waiting;
+  for (const std::string& f : framesWaitedFor_) waiting += (waiting.empty() ? "" : " ") + f;
+  add("waiting for frames", waiting);
+  if (!pausedBecause_.empty()) status.message = pausedBecause_;
   status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok())
+                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok() || !pausedBecause_.empty())
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
   array.status.push_back(status);
@@ -708,6 +869,7 @@ void ClothNode::begin() {
 }
 
 void ClothNode::turn() {
+  keepClockGoing();
   // Commands that arrived before a ~reset are dropped by it: take them first.
   takeCommands();
   tellTfRefusals();
@@ -738,6 +900,13 @@ void ClothNode::turn() {
       control_->wait(std::min(wait, ros::Time::isSimTime() ? 0.001 : 0.05));
       return;
     }
+  }
+  // Not a step with transforms tf no longer holds, nor (before the first) without the frames the
+  // scene follows.
+  if ((b.running && !lagAllowsStep()) || (driver_->stepIndex() == 0 && !followedFramesArrived())) {
+    publishDiagnostics(false);
+    control_->wait(0.01);
+    return;
   }
   // Wait (up to tf_timeout) for the transforms this step needs at exactly its times, so that a
   // replay of the run sees the same frames.

@@ -3,10 +3,40 @@
 #include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <cstdio>
+#include <optional>
+
 #include "fem_cloth/ros/time_checks.h"
 #include "fem_cloth/ros/transform_wait.h"
 
 namespace fem_cloth {
+
+namespace {
+
+// A ROS time in full, to the microsecond ("1796460000.123457", not 1.79646e+09).
+std::string fullTime(const ros::Time& t) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%u.%06u", t.sec, t.nsec / 1000u);
+  return text;
+}
+
+// Why tf cannot give `frame` at `at` when `at` lies further before the frame's newest transform
+// than tf's cache keeps; nullopt when it is within the cache. tf2 keeps, per frame, the transforms
+// from its newest back to the cache length (TimeCache prunes older ones as new ones come): a time
+// before that is one tf held and dropped (or never had), and the oldest transform it kept must not
+// stand in for it (a finger that moved meanwhile would jump into the cloth).
+std::optional<std::string> goneFromTf(const tf2::BufferCore& tf, const std::string& frame, const ros::Time& at,
+                                      const ros::Time& newest) {
+  // getCacheLength() only reads; tf2 does not declare it const.
+  const double kept = const_cast<tf2::BufferCore&>(tf).getCacheLength().toSec();
+  const double before = secondsBetween(newest, at);
+  if (before <= kept) return std::nullopt;
+  return "tf no longer holds frame '" + frame + "' at " + fullTime(at) + " s: that is " + numberText(before) +
+         " s before its newest transform, and tf keeps " + numberText(kept) +
+         " s (tf_cache_time): the node is too far behind ROS time";
+}
+
+}  // namespace
 
 bool FrameResolver::isSimulationFrame(const std::string& frame) const {
   return frame.empty() || tfFrameName(frame) == tfFrameName(frame_);
@@ -56,6 +86,7 @@ FramePose FrameResolver::lookup(const std::string& frame, const ros::Time& at) c
       exact_.emplace(std::make_pair(source, at), *exact);
       return FramePose(*exact);
     }
+    if (std::optional<std::string> gone = goneFromTf(*tf_, frame, at, latest)) return FramePose::unknown(*gone);
     return firstTransform(frame, at, latest);
   }
   // Later than the newest transform (not yet received, or the frame stopped): the newest serves

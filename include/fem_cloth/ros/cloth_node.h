@@ -29,6 +29,19 @@
 //   command_queue_size int    roscpp subscriber queue of ~pin and ~force (1000)
 //   max_failed_attempts int   failed attempts at one step after which a running node pauses
 //                             itself and says why (10; not in a live replay)
+//   tf_cache_time     double  s of transforms the tf buffer keeps per frame (30)
+//   max_lag           double  s the node may be behind ROS time in real_time mode (lag: ROS now
+//                             minus the stamp of its state) before lag_policy applies (10); must
+//                             be below tf_cache_time - tf_timeout
+//   lag_policy        string  pause: pause the node when the lag passes max_lag; warn: warn, and
+//                             pause only when the lag reaches tf_cache_time - tf_timeout while
+//                             the scene follows tf frames (the transforms its steps need would be
+//                             gone). Either way no step uses a transform tf no longer holds
+//   frame_wait_timeout double s of wall time the node waits, before its first step, for the tf
+//                             frames its scene follows (obstacles' and pins' frames); then it
+//                             pauses, naming the missing ones (30)
+//   test_step_delay   double  s of wall time slept in each step: for tests that need a node that
+//                             falls behind (0)
 // and the perception parameters (point cloud, camera, tf frames, marker look: perception.h).
 //
 // Threads: roscpp's spinners run the callbacks, which only hand commands to a CommandInbox and
@@ -78,6 +91,8 @@ class ClothNode {
 
   bool readParameters(std::string* error);
   bool readLimits(std::string* error);
+  /// tf_cache_time, max_lag, lag_policy, frame_wait_timeout, test_step_delay.
+  bool readLagLimits(std::string* error);
   void advertise();
   bool onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
   bool onPause(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res);
@@ -118,6 +133,22 @@ class ClothNode {
   void stopOnFailure();
   /// /clock at the simulation time (fast mode only).
   void publishClock();
+  /// In fast mode, /clock again (same time) when none went out for 0.1 s of wall time: while
+  /// paused or waiting, so that nodes on simulation time started later get a time.
+  void keepClockGoing();
+  /// The lag (s): ROS now minus the stamp of the current state, in real_time mode (0 in fast mode,
+  /// where the node makes ROS time).
+  double lag() const;
+  /// Applies lag_policy before a step while running in real_time mode; false when it paused.
+  bool lagAllowsStep();
+  /// Pauses the node by itself (`lag`: for its lag; else missing frames): says why on
+  /// /diagnostics and in one line.
+  void pauseBecause(const std::string& why, bool lag);
+  /// The tf frames the scene follows now: those of obstacles and of frame-following pins.
+  std::vector<std::string> followedFrames() const;
+  /// Before the first step: false while a followed frame has no transform in tf (pausing with
+  /// their names after frame_wait_timeout).
+  bool followedFramesArrived();
   /// The real-time factor is measured from here (start, reset, resume, each ~1 s window).
   void restartRealTimeFactorWindow();
   void publishOutputs(const StepReport& report, double wallTime, bool force);
@@ -140,7 +171,7 @@ class ClothNode {
   // ~advance and ~reset wait for the run loop: their own queue and spinner, so that waiting
   // never holds up commands, ~pause or ~resume.
   ros::CallbackQueue blockingQueue_;
-  tf2_ros::Buffer tfBuffer_;
+  std::unique_ptr<tf2_ros::Buffer> tfBuffer_;  // made when the parameters are read: tf_cache_time
   std::unique_ptr<TfIntake> tfIntake_;
   std::unique_ptr<SimulationDriver> driver_;
   std::unique_ptr<PerceptionOutputs> perception_;  // ~points, ~camera/*, ~marker, tf frames
@@ -164,6 +195,8 @@ class ClothNode {
   double maxPinJump_ = 1.0;
   int maxPendingCommands_ = 10000, commandQueueSize_ = 1000;
   int maxFailedAttempts_ = 10;
+  double tfCacheTime_ = 30.0, maxLag_ = 10.0, frameWaitTimeout_ = 30.0, testStepDelay_ = 0.0;
+  bool lagPolicyPause_ = true;  // lag_policy: pause (true) or warn
 
   // Run state (the run loop's).
   std::uint64_t publishEvery_ = 1, markerEvery_ = 1;
@@ -178,6 +211,11 @@ class ClothNode {
   std::uint64_t failedSteps_ = 0;
   int failedAttempts_ = 0;      // failed attempts in a row at the current step while running
   std::string stoppedBecause_;  // while paused by a failing step: why (the core's refusal)
+  std::string pausedBecause_;   // while paused by the lag or by missing frames: why
+  bool pausedByLag_ = false;
+  std::optional<ros::WallTime> frameWaitSince_;  // waiting for followed frames since
+  std::vector<std::string> framesWaitedFor_;
+  ros::WallTime lastClock_;  // wall time of the last /clock
   // The step index and stamp of the state last published on ~state (none before the first).
   std::optional<std::pair<std::uint64_t, ros::Time>> publishedState_;
   std::array<std::uint64_t, kCommandTopics> inboxRefusalsTold_{};
