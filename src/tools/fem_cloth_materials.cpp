@@ -22,10 +22,10 @@
 #include <string>
 #include <vector>
 
-#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/core/material_audit.h"
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/package_paths.h"
+#include "fem_cloth/io/command_line.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

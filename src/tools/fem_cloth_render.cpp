@@ -23,8 +23,8 @@
 #include <iostream>
 #include <optional>
 
-#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/ClothState.h"
+#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/perception.h"

@@ -40,10 +40,11 @@
 #include <sstream>
 #include <tuple>
 
-#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/package_paths.h"
 #include "fem_cloth/core/scene.h"
+#include "fem_cloth/io/command_line.h"
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/report/cases.h"
 #include "fem_cloth/report/run.h"
@@ -832,6 +833,10 @@ std::string checkOptionValues(const CLI::App& app, const Options& opt) {
   }
   if (std::error_code ec; !opt.fromCellResults.empty() && !std::filesystem::is_directory(opt.fromCellResults, ec)) {
     return "--from-cell-results: there is no folder '" + opt.fromCellResults + "'";
+  }
+  // The runner's outputs, before its cells run (a slice of cells takes minutes).
+  for (const auto& [option, path] : {std::pair{"--list-cells", &opt.listCells}, std::pair{"--cell-results", &opt.cellResults}}) {
+    if (Status s = path->empty() ? Status::success() : checkOutputPath(*path); !s) return std::string(option) + ": " + s.error();
   }
   return "";
 }

@@ -26,14 +26,14 @@
 #include <iostream>
 #include <sstream>
 
-#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
+#include "fem_cloth/core/threads.h"
+#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
 #include "fem_cloth/ros/simulation_driver.h"
-#include "fem_cloth/core/threads.h"
 
 using namespace fem_cloth;
 

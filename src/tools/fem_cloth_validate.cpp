@@ -16,9 +16,9 @@
 
 #include <unistd.h>
 
-#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/core/bending.h"
 #include "fem_cloth/core/threads.h"
+#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/io/output_file.h"
 #include "fem_cloth/validate/cases.h"
 

@@ -109,6 +109,11 @@ TEST(BadArguments, EveryToolRefusesWithStatus2NamingTheArgumentBeforeTheWork) {
       {report, {"--out", "{OUT}", "--quiet", "--dts", "-1"}, {"--dts", "-1"}, "{OUT}"},
       {report, {"--out", "{OUT}", "--quiet", "--cell-budget", "-1"}, {"--cell-budget", "-1"}, "{OUT}"},
       {report, {"--out", "{OUT}", "--quiet", "--duration", "-1"}, {"--duration", "-1"}, "{OUT}"},
+      // A runner's task: its results file was found unwritable only after its cells ran.
+      {report,
+       {"--study", "stability", "--quiet", "--cells", "0:1", "--cell-results", "/nonexistent/dir/c.json"},
+       {"--cell-results", "/nonexistent/dir"},
+       ""},
       // fem_cloth_materials: 1e8 values of s ran for minutes; products that overflow printed
       // "stiffness: inf"; a negative length was answered "give --length".
       {materials, {"sweep", "--out", "{OUT}", "--count", "100000000"}, {"--count", "100000000"}, "{OUT}/material_sweep.csv"},
