@@ -64,14 +64,25 @@ long obstacleIndex(const YAML::Node& obstacles, const std::string& name) {
   return -1;
 }
 
+// The entry as a map: one YAML document (a second one was ignored), without a name or with
+// the command's (another name was overwritten when adding, and renamed the obstacle when moving).
 Expected<YAML::Node> entryMap(const std::string& entry, const std::string& name) {
   YAML::Node map;
   try {
-    map = YAML::Load(entry);
+    const std::vector<YAML::Node> documents = YAML::LoadAll(entry);
+    if (documents.size() > 1) {
+      return Error{"obstacle '" + name + "': entry holds " + std::to_string(documents.size()) +
+                   " YAML documents (separated by ---): give one map"};
+    }
+    if (!documents.empty()) map = documents.front();
   } catch (const YAML::Exception& e) {
     return Error{"obstacle '" + name + "': entry is not valid YAML: " + e.msg};
   }
   if (!map.IsMap()) return Error{"obstacle '" + name + "': entry must be a YAML map, got '" + entry + "'"};
+  if (const YAML::Node own = map["name"]; own && !(own.IsScalar() && own.Scalar() == name)) {
+    return Error{"obstacle '" + name + "': the entry's name: " + sceneDocumentToString(own) +
+                 " is not the command's name; leave name out of the entry (the command names the obstacle)"};
+  }
   return map;
 }
 

@@ -23,6 +23,37 @@ Status checkNotAnInput(const std::string& output, const std::vector<std::string>
   return Status::success();
 }
 
+Status checkOutputPath(const std::string& path) {
+  namespace fs = std::filesystem;
+  if (path.empty()) return Error{"an empty file name"};
+  if (fs::path(path).filename().empty()) return Error{"'" + path + "' names a folder, not a file"};
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (fs::is_directory(status)) return Error{"'" + path + "' is a folder, not a file"};
+  if (fs::exists(status) && !fs::is_regular_file(status)) {
+    return Error{"'" + path + "' is not a regular file (a device or pipe): write to a file"};
+  }
+  const fs::path parent = fs::path(path).parent_path();
+  const fs::path folder = parent.empty() ? fs::path(".") : parent;
+  if (!fs::is_directory(folder, ec)) {
+    return Error{"cannot write '" + path + "': there is no folder '" + folder.string() + "'"};
+  }
+  if (::access(folder.c_str(), W_OK) != 0) {
+    return Error{"cannot write '" + path + "': the folder '" + folder.string() + "' is not writable"};
+  }
+  return Status::success();
+}
+
+bool sameOutputPath(const std::string& a, const std::string& b) {
+  std::error_code same, ea, eb;  // one each: a failed call's code is not cleared by the next
+  if (std::filesystem::equivalent(a, b, same) && !same) return true;
+  // Absolute first: weakly_canonical leaves a relative path to a file not yet there relative.
+  const std::filesystem::path ca = std::filesystem::weakly_canonical(std::filesystem::absolute(a), ea);
+  const std::filesystem::path cb = std::filesystem::weakly_canonical(std::filesystem::absolute(b), eb);
+  if (ea || eb) return a == b;
+  return ca == cb;
+}
+
 Expected<std::string> createTemporaryNextTo(const std::string& path) {
   std::string name = path + ".partial-XXXXXX";
   const int fd = ::mkstemp(name.data());

@@ -368,6 +368,11 @@ Status readContact(const YAML::Node& node, Scene& s) {
     }
   }
   FEM_CLOTH_CHECK(r.boolean("self_collision", s.contact.selfCollision));
+  // The friction of cloth on cloth: without self-contact it would do nothing, silently.
+  if (r.has("self_friction") && !s.contact.selfCollision) {
+    return Error{"contact.self_friction is the friction of cloth on cloth and needs contact.self_collision: "
+                 "true (without self-contact it does nothing)"};
+  }
   FEM_CLOTH_CHECK(r.number("self_friction", s.contact.selfFriction));
   FEM_CLOTH_CHECK(r.number("friction_velocity", s.contact.frictionVelocity));
   return Status::success();
@@ -566,6 +571,12 @@ Expected<Scene> readScene(const YAML::Node& doc, const std::string& sourcePath) 
   FEM_CLOTH_CHECK(readMaterial(root, s));
   FEM_CLOTH_CHECK(readAir(root, s));
   FEM_CLOTH_CHECK(root.vector("gravity", s.gravity));
+  // Two numbers are a planar scene's gravity; on a cloth in 3D they would leave out the vertical
+  // one silently (gravity [0, 0] is weightless cloth, not the default).
+  if (s.dim == 3 && root.has("gravity") && root.child("gravity").size() == 2) {
+    return Error{"gravity has 2 numbers, the scene is 3D (mesh.dim 3): give [gx, gy, gz], got " +
+                 describe(root.child("gravity"))};
+  }
   FEM_CLOTH_CHECK(readIntegrator(root.child("integrator"), s));
   FEM_CLOTH_CHECK(root.number("duration", s.duration));
   FEM_CLOTH_CHECK(readPins(root, s));
@@ -649,18 +660,35 @@ Status applySceneOverride(YAML::Node& document, const std::string& assignment) {
   return set(document, 0);
 }
 
+Expected<YAML::Node> parseSceneText(const std::string& text, const std::string& where) {
+  if (text.size() > kMaxSceneFileBytes) {
+    return Error{where + ": " + std::to_string(text.size()) + " bytes, more than the " +
+                 std::to_string(kMaxSceneFileBytes) + " bytes a scene may have"};
+  }
+  YAML::Node doc;
+  try {
+    // Every document, not the first: a second one (after ---) would be ignored silently.
+    const std::vector<YAML::Node> documents = YAML::LoadAll(text);
+    if (documents.size() > 1) {
+      return Error{where + ": holds " + std::to_string(documents.size()) +
+                   " YAML documents (separated by ---): a scene is one document"};
+    }
+    if (!documents.empty()) doc = documents.front();
+  } catch (const YAML::Exception& e) {
+    return Error{where + ": malformed YAML at line " + std::to_string(e.mark.line + 1) +
+                 ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg};
+  }
+  if (!doc.IsDefined() || doc.IsNull()) doc = YAML::Node(YAML::NodeType::Map);
+  return doc;
+}
+
 Expected<YAML::Node> loadSceneDocument(const std::string& path,
                                        const std::vector<std::string>& overrides) {
   Expected<std::string> text = readTextFile(path, kMaxSceneFileBytes, "scene file");
   if (!text) return Error{text.error()};
-  YAML::Node doc;
-  try {
-    doc = YAML::Load(*text);
-  } catch (const YAML::Exception& e) {
-    return Error{path + ": malformed YAML at line " + std::to_string(e.mark.line + 1) +
-                 ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg};
-  }
-  if (!doc.IsDefined() || doc.IsNull()) doc = YAML::Node(YAML::NodeType::Map);
+  Expected<YAML::Node> parsed = parseSceneText(*text, path);
+  if (!parsed) return Error{parsed.error()};
+  YAML::Node doc = *parsed;
   for (const std::string& o : overrides) {
     if (Status s = applySceneOverride(doc, o); !s) return Error{s.error()};
   }

@@ -16,6 +16,7 @@
 
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/io/output_file.h"
+#include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/time_checks.h"
 
 namespace fem_cloth {
@@ -212,11 +213,8 @@ Expected<YAML::Node> storedScene(const RecordedRun& run, const std::string& node
     return Error{"bag '" + run.path + "' holds no scene (" + RunTopics(node).scene +
                  "): record with launch/record.launch, or give the scene"};
   }
-  try {
-    return YAML::Load(run.sceneYaml);
-  } catch (const YAML::Exception& e) {
-    return Error{"the scene stored in bag '" + run.path + "' is not valid YAML: " + e.msg};
-  }
+  // As a scene file is read: bounded in size, one document.
+  return parseSceneText(run.sceneYaml, "the scene stored in bag '" + run.path + "'");
 }
 
 namespace {

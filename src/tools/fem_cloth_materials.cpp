@@ -25,6 +25,7 @@
 #include "fem_cloth/core/material_audit.h"
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/package_paths.h"
+#include "fem_cloth/io/command_line.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -205,6 +206,10 @@ struct SweepOptions {
   bool plot = false;
 };
 
+// The most values of s a sweep takes: 6 models x 1e5 rows is a CSV of about 40 MB, written in
+// about a second; more is no longer a curve to plot but a disk to fill.
+constexpr int kMaxSweepCount = 100000;
+
 constexpr const char* kSweepHeader = "model,s,psi_J_per_m2,P11_N_per_m,P22_N_per_m";
 
 /// The plotting script: next to the executable in an install space (catkin_install_python puts
@@ -265,8 +270,10 @@ int runSweep(const SweepOptions& o) {
     std::cerr << "fem_cloth_materials sweep: " << problem << "\n";
     return 2;
   }
-  if (!(o.sMin < o.sMax) || !std::isfinite(o.sMin) || !std::isfinite(o.sMax) || o.count < 2) {
-    std::cerr << "fem_cloth_materials sweep: need finite --s-min < --s-max and --count >= 2\n";
+  if (!(o.sMin < o.sMax) || !std::isfinite(o.sMin) || !std::isfinite(o.sMax) || o.count < 2 ||
+      o.count > kMaxSweepCount) {
+    std::cerr << "fem_cloth_materials sweep: need finite --s-min < --s-max and --count from 2 to "
+              << kMaxSweepCount << ", got --count " << o.count << "\n";
     return 2;
   }
   std::error_code ec;
@@ -461,15 +468,24 @@ int labError(const std::string& subcommand, const std::string& message) {
 
 /// Peirce 1930 / ASTM D1388: the strip's bending length c (the overhang at which its tip chord
 /// reaches 41.5 deg, halved) gives the rigidity per unit width B = w c^3, w = rho_A g.
-int runFromBendingLength(const LabOptions& o) {
+int runFromBendingLength(const LabOptions& o, const CLI::App& command) {
   const std::string name = "from-bending-length";
-  if ((o.length > 0.0) == (o.overhang > 0.0)) return labError(name, "give --length or --overhang (one of them)");
-  const double c = o.length > 0.0 ? o.length : 0.5 * o.overhang;
-  for (const std::string& e : {positive(c, o.length > 0.0 ? "--length" : "--overhang"), positive(o.density, "--density"),
-                               positive(o.gravity, "--gravity"), positive(o.thickness, "--thickness")}) {
+  const bool byLength = command.count("--length") != 0;
+  if (byLength == (command.count("--overhang") != 0)) return labError(name, "give --length or --overhang (one of them)");
+  const double c = byLength ? o.length : 0.5 * o.overhang;
+  for (const std::string& e : {positive(byLength ? o.length : o.overhang, byLength ? "--length" : "--overhang"),
+                               positive(o.density, "--density"), positive(o.gravity, "--gravity"),
+                               positive(o.thickness, "--thickness")}) {
     if (!e.empty()) return labError(name, e);
   }
   const double w = o.density * o.gravity;
+  // Each input finite, their products need not be: no "stiffness: inf" for a scene.
+  if (!std::isfinite(w * c * c * c) || !std::isfinite(o.density / o.thickness)) {
+    return labError(name, "the bending stiffness w c^3 = " + csvNumber(w * c * c * c) + " N m or the density " +
+                              csvNumber(o.density / o.thickness) +
+                              " kg/m^3 is not a finite number: check --length, --overhang, --density, "
+                              "--gravity and --thickness");
+  }
   std::cout << "# bending length c = " << c << " m, areal density " << o.density << " kg/m^2 (w = rho_A g = " << w
             << " N/m^2)\n"
             << "# B = w c^3 (Peirce 1930, ASTM D1388): the rigidity per unit width\n"
@@ -485,10 +501,12 @@ int runFromBendingLength(const LabOptions& o) {
 
 /// A strip test (e.g. ASTM D5035): force F on a strip of width w at strain e gives the membrane
 /// stiffness E h = F / (w e).
-int runFromElongation(const LabOptions& o) {
+int runFromElongation(const LabOptions& o, const CLI::App& command) {
   const std::string name = "from-elongation";
-  const bool byExtension = o.extension > 0.0 || o.gaugeLength > 0.0;
-  if ((o.strain > 0.0) == byExtension) return labError(name, "give --strain, or --extension with --gauge-length");
+  const bool byExtension = command.count("--extension") != 0 || command.count("--gauge-length") != 0;
+  if ((command.count("--strain") != 0) == byExtension) {
+    return labError(name, "give --strain, or --extension with --gauge-length");
+  }
   const double strain = byExtension ? o.extension / o.gaugeLength : o.strain;
   for (const std::string& e : {positive(o.force, "--force"), positive(o.width, "--width"),
                                positive(byExtension ? o.extension : o.strain, byExtension ? "--extension" : "--strain"),
@@ -498,6 +516,12 @@ int runFromElongation(const LabOptions& o) {
   }
   if (!(o.poisson >= 0.0 && o.poisson < 0.5)) return labError(name, "--poisson must be in [0, 0.5), got " + json(o.poisson).dump());
   const double Eh = o.force / (o.width * strain);
+  if (!std::isfinite(Eh) || !std::isfinite(Eh / o.thickness)) {
+    return labError(name, "the membrane stiffness E h = F / (w strain) = " + csvNumber(Eh) + " N/m at --thickness " +
+                              csvNumber(o.thickness) +
+                              " m gives no finite Young's modulus: check --force, --width, --strain (or "
+                              "--extension, --gauge-length) and --thickness");
+  }
   std::cout << "# strip test: " << o.force << " N on a " << o.width << " m wide strip at strain " << strain << "\n"
             << "# E h = F / (w strain) = " << Eh << " N/m\n"
             << "material:\n"
@@ -571,7 +595,7 @@ Exit status: 0, also when lines had errors; 2 if standard input cannot be read.)
   sweep->add_option("--s-min", sweepOptions.sMin, "smallest s (s < 0: inverted)")
       ->capture_default_str();
   sweep->add_option("--s-max", sweepOptions.sMax, "largest s")->capture_default_str();
-  sweep->add_option("--count", sweepOptions.count, "number of values of s, evenly spaced")
+  sweep->add_option("--count", sweepOptions.count, "number of values of s, evenly spaced (2 to 100000)")
       ->capture_default_str();
   sweep->add_flag("--plot", sweepOptions.plot,
                   "also draw OUT/material_sweep.png (needs python3 and python3-matplotlib)");
@@ -605,18 +629,13 @@ s <= 0) psi is inf and P11, P22 are nan.)");
               << "' (expected eval, sweep, audit, from-bending-length or from-elongation; see --help)\n";
     return 2;
   }
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // --help succeeds; any other parse error is one line, exit status 2.
-    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
-    std::cerr << "fem_cloth_materials: " << e.what() << " (see --help)\n";
-    return 2;
+  if (const std::optional<int> status = fem_cloth::parseToolCommandLine(app, argc, argv, "fem_cloth_materials")) {
+    return *status;
   }
   if (eval->parsed()) return runEval();
   if (sweep->parsed()) return runSweep(sweepOptions);
-  if (fromBendingLength->parsed()) return runFromBendingLength(lab);
-  if (fromElongation->parsed()) return runFromElongation(lab);
+  if (fromBendingLength->parsed()) return runFromBendingLength(lab, *fromBendingLength);
+  if (fromElongation->parsed()) return runFromElongation(lab, *fromElongation);
   return runAudit(auditMu, auditLambda, auditCsv);
 }
 

@@ -21,8 +21,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "fem_cloth/ClothState.h"
+#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/perception.h"
@@ -123,10 +125,15 @@ Expected<CameraSettings> viewCamera(const std::string& file) {
   YAML::Node doc;
   try {
     doc = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    return Error{"--view " + file + ": cannot read the file"};
   } catch (const YAML::Exception& e) {
-    return Error{"--view " + file + ": " + e.what()};
+    return Error{"--view " + file + " is not YAML (a view file of config/views/): " + e.msg};
   }
-  if (!doc["camera"]) return Error{"--view " + file + " has no camera: map"};
+  // A file that is YAML but not a map (a text file reads as one scalar) has no camera either.
+  if (!doc.IsMap() || !doc["camera"] || !doc["camera"].IsMap()) {
+    return Error{"--view " + file + " is not a view file: it has no camera: map (see config/views/)"};
+  }
   Expected<CameraSettings> c = readCameraSettings(toXmlRpc(doc["camera"]));
   if (!c) return Error{"--view " + file + ": " + c.error()};
   if (!c->pose) return Error{"--view " + file + ": camera needs a pose (position and look_at)"};
@@ -235,11 +242,12 @@ class FrameWriter {
   double renderSeconds_ = 0.0, writeSeconds_ = 0.0;
 };
 
-// The camera of --view, or one framing the first and last states; --width/--height resize it.
-Expected<CameraSettings> chooseCamera(const Options& o, const Mesh& mesh, const std::vector<VectorX>& states) {
-  Expected<CameraSettings> camera = o.view.empty()
-                                        ? Expected<CameraSettings>(framingCamera(mesh, {&states.front(), &states.back()}))
-                                        : viewCamera(o.view);
+// The camera of --view (read before the bag), or one framing the first and last states;
+// --width/--height resize it.
+Expected<CameraSettings> chooseCamera(const Options& o, const std::optional<CameraSettings>& view, const Mesh& mesh,
+                                      const std::vector<VectorX>& states) {
+  Expected<CameraSettings> camera =
+      view ? *view : Expected<CameraSettings>(framingCamera(mesh, {&states.front(), &states.back()}));
   if (camera && (o.width > 0 || o.height > 0)) {
     // Another size with the same field of view.
     const double fov = 2.0 * std::atan(0.5 * camera->intrinsics.width / camera->intrinsics.fx);
@@ -250,6 +258,21 @@ Expected<CameraSettings> chooseCamera(const Options& o, const Mesh& mesh, const 
 }
 
 int run(const Options& o) {
+  // The arguments before the bag is read: the view file, and an output folder that can be made.
+  std::optional<CameraSettings> view;
+  if (!o.view.empty()) {
+    Expected<CameraSettings> c = viewCamera(o.view);
+    if (!c) {
+      std::cerr << "fem_cloth_render: " << c.error() << "\n";
+      return 2;
+    }
+    view = *c;
+  }
+  if (std::error_code ec; !std::filesystem::create_directories(o.out, ec) && !std::filesystem::is_directory(o.out)) {
+    std::cerr << "fem_cloth_render: --out " << o.out << ": cannot make the folder"
+              << (ec ? ": " + ec.message() : std::string(": a file of that name exists")) << "\n";
+    return 2;
+  }
   Expected<RecordedRun> recorded = readRun(o.bag, o.node);
   if (!recorded) {
     std::cerr << "fem_cloth_render: " << recorded.error() << "\n";
@@ -259,21 +282,41 @@ int run(const Options& o) {
     std::cerr << "fem_cloth_render: " << o.bag << " holds no scene or no states of " << o.node << "\n";
     return 2;
   }
-  Expected<Scene> scene = parseScene(YAML::Load(recorded->sceneYaml), o.bag);
+  Expected<YAML::Node> document = storedScene(*recorded, o.node);
+  if (!document) {
+    std::cerr << "fem_cloth_render: " << document.error() << "\n";
+    return 2;
+  }
+  Expected<Scene> scene = parseScene(*document, o.bag);
   Expected<Simulation> simulation = scene ? buildSimulation(*scene) : Expected<Simulation>(Error{scene.error()});
   if (!simulation) {
     std::cerr << "fem_cloth_render: the bag's scene: " << simulation.error() << "\n";
     return 2;
   }
   const Model& model = simulation->simulator->model();
+  // The states are drawn on the scene's mesh: a bag whose scene is not the mesh of its states
+  // (an edited ~scene) is refused, not drawn as something else.
+  if (recorded->mesh) {
+    if (Status s = checkMeshMatches(*recorded->mesh, *simulation->mesh); !s) {
+      std::cerr << "fem_cloth_render: bag '" << o.bag << "': " << s.error() << "\n";
+      return 2;
+    }
+  }
   std::vector<ClothState> headers;
   const std::vector<VectorX> states = readPositions(o.bag, RunTopics(o.node).state, model.mesh().dim, &headers);
-  const Expected<CameraSettings> camera = chooseCamera(o, model.mesh(), states);
+  for (std::size_t k = 0; k < states.size(); ++k) {
+    if (states[k].size() != model.mesh().dim * model.mesh().numVertices()) {
+      std::cerr << "fem_cloth_render: bag '" << o.bag << "': the state of step " << headers[k].step << " has "
+                << states[k].size() / model.mesh().dim << " vertices, the scene's mesh "
+                << model.mesh().numVertices() << ": the bag's scene is not the mesh of its states\n";
+      return 2;
+    }
+  }
+  const Expected<CameraSettings> camera = chooseCamera(o, view, model.mesh(), states);
   if (!camera) {
     std::cerr << "fem_cloth_render: " << camera.error() << "\n";
     return 2;
   }
-  std::filesystem::create_directories(o.out);
   FrameWriter writer(o, *camera, model, simulation->simulator->obstacles(), *recorded);
   const std::vector<std::size_t> picked = pickFrames(headers, scene->dt, o.fps);
   for (std::size_t f = 0; f < picked.size(); ++f) {
@@ -303,14 +346,16 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--out", o.out, "directory for frame_NNNNN.png")->required();
   app.add_option("--view", o.view, "a view file (config/views/*.yaml): its camera; default: one that frames the cloth");
-  app.add_option("--fps", o.fps, "frames per second of simulation time (30)")->check(CLI::PositiveNumber);
-  app.add_option("--width", o.width, "image width (pixels; the field of view is kept)")->check(CLI::PositiveNumber);
-  app.add_option("--height", o.height, "image height (pixels)")->check(CLI::PositiveNumber);
+  app.add_option("--fps", o.fps, "frames per second of simulation time (30)")->check(fem_cloth::positiveNumber());
+  app.add_option("--width", o.width, "image width (pixels; the field of view is kept)")->check(fem_cloth::positiveNumber());
+  app.add_option("--height", o.height, "image height (pixels)")->check(fem_cloth::positiveNumber());
   app.add_flag("--depth", o.depth, "also write depth_NNNNN.png (16-bit millimetres)");
   app.add_flag("--color-by-strain", o.byStrain, "colour the cloth by strain");
   app.add_option("--node", o.node, "the node whose topics the bag holds (/fem_cloth_node)");
   app.add_flag("--quiet", o.quiet, "no progress bar");
-  CLI11_PARSE(app, argc, argv);
+  if (const std::optional<int> status = fem_cloth::parseToolCommandLine(app, argc, argv, "fem_cloth_render")) {
+    return *status;
+  }
   try {
     return run(o);
   } catch (const std::exception& e) {

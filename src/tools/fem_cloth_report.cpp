@@ -43,6 +43,8 @@
 #include "fem_cloth/core/materials/materials.h"
 #include "fem_cloth/core/package_paths.h"
 #include "fem_cloth/core/scene.h"
+#include "fem_cloth/io/command_line.h"
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/report/cases.h"
 #include "fem_cloth/report/run.h"
@@ -795,6 +797,50 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
   return 0;
 }
 
+// What is wrong with the options' values (one line naming the option), or "": checked before any
+// work, so that a value that cannot work is not refused only after the studies before it ran.
+std::string checkOptionValues(const CLI::App& app, const Options& opt) {
+  const auto positive = [](double x) { return x > 0.0 && std::isfinite(x); };
+  if (!positive(opt.referenceResolution)) {
+    return "--reference-resolution must be positive and finite (a fraction of the CFL bound), got " + num(opt.referenceResolution);
+  }
+  if (app.count("--duration") != 0 && !positive(opt.duration)) {
+    return "--duration must be positive and finite (s), got " + num(opt.duration);
+  }
+  if (!positive(opt.cellBudget)) return "--cell-budget must be positive and finite (s), got " + num(opt.cellBudget);
+  std::string steps;
+  for (double dt : stabilityDts()) steps += (steps.empty() ? "" : ", ") + num(dt);
+  for (double d : opt.dts) {
+    const bool known = std::any_of(stabilityDts().begin(), stabilityDts().end(),
+                                   [&](double dt) { return std::abs(d - dt) <= 1e-9 * dt; });
+    if (!known) return "--dts: " + num(d) + " s is not a step of the stability matrix (" + steps + ")";
+  }
+  if (Expected<YAML::Node> doc = extremeCase(extremeCaseNames().front(), opt.grid); !doc) {
+    return "--grid: " + doc.error();
+  }
+  std::vector<std::string> levels;
+  for (const Stiffness& l : stiffnessLevels()) levels.push_back(l.name);
+  for (const auto& [option, given, known] :
+       {std::tuple{"--cases", &opt.cases, extremeCaseNames()}, std::tuple{"--materials", &opt.materials, materialNames()},
+        std::tuple{"--stiffness", &opt.stiffness, levels}}) {
+    for (const std::string& name : *given) {
+      if (!selected(known, name)) {
+        std::string list;
+        for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
+        return std::string(option) + ": unknown name '" + name + "' (" + list + ")";
+      }
+    }
+  }
+  if (std::error_code ec; !opt.fromCellResults.empty() && !std::filesystem::is_directory(opt.fromCellResults, ec)) {
+    return "--from-cell-results: there is no folder '" + opt.fromCellResults + "'";
+  }
+  // The runner's outputs, before its cells run (a slice of cells takes minutes).
+  for (const auto& [option, path] : {std::pair{"--list-cells", &opt.listCells}, std::pair{"--cell-results", &opt.cellResults}}) {
+    if (Status s = path->empty() ? Status::success() : checkOutputPath(*path); !s) return std::string(option) + ": " + s.error();
+  }
+  return "";
+}
+
 // The command line into `opt`, with the package's defaults for --config and --bag and the lists
 // split at commas; an exit status when the program ends here (--help, a bad command line).
 std::optional<int> parseCommandLine(int argc, char** argv, Options& opt) {
@@ -829,16 +875,12 @@ std::optional<int> parseCommandLine(int argc, char** argv, Options& opt) {
                  "stability: read every cell's result from the JSON files in this folder (what "
                  "--cells wrote) instead of running them");
   app.add_option("--repeats", opt.repeats, "timing repeats per run (median; fewer once a setting took 2 s)")
-      ->check(CLI::PositiveNumber);
+      ->check(fem_cloth::positiveNumber());
   app.add_option("--cell-budget", opt.cellBudget, "wall time (s) after which a stability cell stops");
   app.add_option("--grid", opt.grid, "vertices per side of the stability cases (odd, >= 5)");
   app.add_flag("--quiet,-q", opt.quiet, "no progress display");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
-    std::cerr << "fem_cloth_report: " << e.what() << " (see --help)\n";
-    return 2;
+  if (const std::optional<int> status = fem_cloth::parseToolCommandLine(app, argc, argv, "fem_cloth_report")) {
+    return status;
   }
   // The defaults from the installed package (or the devel space's source tree): no path of the
   // source tree is compiled in (core/package_paths.h).
@@ -863,6 +905,10 @@ std::optional<int> parseCommandLine(int argc, char** argv, Options& opt) {
       std::cerr << "fem_cloth_report: --integrators: unknown integrator '" << name << "'\n";
       return 2;
     }
+  }
+  if (const std::string problem = checkOptionValues(app, opt); !problem.empty()) {
+    std::cerr << "fem_cloth_report: " << problem << '\n';
+    return 2;
   }
   return std::nullopt;
 }

@@ -30,11 +30,12 @@
 
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
+#include "fem_cloth/core/threads.h"
+#include "fem_cloth/io/command_line.h"
 #include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_replay.h"
 #include "fem_cloth/ros/simulation_driver.h"
-#include "fem_cloth/core/threads.h"
 
 using namespace fem_cloth;
 
@@ -605,11 +606,25 @@ int runParsed(const Options& opt) {
   }
   // Before the run, not after it: a --summary-json naming the recording would be refused only
   // once the replay is done.
-  for (const std::string* out : {&opt.writeScene, &opt.summaryJson}) {
-    if (Status s = out->empty() ? Status::success() : checkNotAnInput(*out, {opt.scene, opt.commands}); !s) {
-      std::cerr << "fem_cloth_sim: " << oneLine(s.error()) << '\n';
+  for (const auto& [option, out] : {std::pair{"--write-scene", &opt.writeScene}, std::pair{"--summary-json", &opt.summaryJson}}) {
+    if (out->empty()) continue;
+    Status s = checkNotAnInput(*out, {opt.scene, opt.commands});
+    if (s) s = checkOutputPath(*out);
+    if (!s) {
+      std::cerr << "fem_cloth_sim: " << option << ": " << oneLine(s.error()) << '\n';
       return 2;
     }
+    // Nor another output of the run: found now, not when the run's bag has taken the name.
+    if (!opt.out.empty() && sameOutputPath(*out, opt.out)) {
+      std::cerr << "fem_cloth_sim: " << option << " '" << *out << "' is the --out '" << opt.out
+                << "': give another file\n";
+      return 2;
+    }
+  }
+  if (!opt.writeScene.empty() && !opt.summaryJson.empty() && sameOutputPath(opt.writeScene, opt.summaryJson)) {
+    std::cerr << "fem_cloth_sim: --write-scene and --summary-json name the same file '" << opt.summaryJson
+              << "': give two files\n";
+    return 2;
   }
   if (!opt.writeScene.empty() || opt.check) {
     if (int status = checkScene(opt, overrides); status != 0 || opt.check) return status;
@@ -650,7 +665,8 @@ int run(int argc, char** argv) {
   app.add_option("--integrator", opt.integrator,
                  "override integrator.name: " + integratorList + " (see below)");
   app.add_option("--dt", opt.dt, "override integrator.dt (s)");
-  app.add_option("--duration", opt.duration, "override the scene's duration (s)");
+  // Checked here for --commands too, where no scene key takes it (a replay ignored -1).
+  app.add_option("--duration", opt.duration, "override the scene's duration (s)")->check(positiveNumber());
   app.add_option("--set", opt.overrides, "override any scene key: key.path=value (repeatable)");
   app.add_option("--out", opt.out,
                  "output folder for CSV (default: fem_cloth_output/<scene name>), or a file "
@@ -664,7 +680,8 @@ int run(int argc, char** argv) {
                "(positions, velocities where recorded, state hash); a damaged recorded state "
                "(not finite, not one position per vertex) is refused with status 2");
   app.add_flag("--no-output", opt.noOutput, "write no files, only the summary");
-  app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)");
+  app.add_option("--every", opt.every, "write every N-th step (default: about 60 frames per s)")
+      ->check(positiveNumber());
   app.add_flag("--quiet,-q", opt.quiet, "no progress line");
   app.add_flag("--check", opt.check,
                "validate the scene with its overrides (parse and build it), print one line and "
@@ -678,14 +695,8 @@ int run(int argc, char** argv) {
                  "write the scene with the --set overrides applied to this YAML file (runs "
                  "again with --scene FILE alone)");
   app.footer(integratorHelp());
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    // --help prints the usage and succeeds; every other parse error is one line on stderr,
-    // like the scene errors (CLI11's own report adds a second line and no program name).
-    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);
-    std::cerr << "fem_cloth_sim: " << e.what() << " (see --help)\n";
-    return 2;
+  if (const std::optional<int> status = fem_cloth::parseToolCommandLine(app, argc, argv, "fem_cloth_sim")) {
+    return *status;
   }
 
   return runParsed(opt);

@@ -14,13 +14,21 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "fem_cloth/core/bending.h"
 #include "fem_cloth/core/threads.h"
+#include "fem_cloth/io/command_line.h"
+#include "fem_cloth/io/output_file.h"
 #include "fem_cloth/validate/cases.h"
 
 namespace {
 
 using fem_cloth::validate::CaseRow;
+
+// The finest resolution (the clamp study of docs/validation.md went to 512 cells). Such a run
+// takes many minutes: on a terminal each case says when it starts.
+constexpr int kMaxCells = 512;
 
 /// Observed order against the previous row of the same case, parameter and quantity at a coarser
 /// mesh (or a larger time step); NaN when there is none (or either solve did not converge).
@@ -59,8 +67,7 @@ std::string csvField(const std::string& s) {
   return out + "\"";
 }
 
-void writeCsv(const std::string& path, const std::vector<CaseRow>& rows, const std::vector<double>& order) {
-  std::ofstream out(path);
+void writeCsv(std::ostream& out, const std::vector<CaseRow>& rows, const std::vector<double>& order) {
   out << std::setprecision(10);
   out << "validation,parameter,cells,dt,quantity,value,reference,error,order,tolerance,status,residual,source,note\n";
   for (std::size_t i = 0; i < rows.size(); ++i) {
@@ -72,7 +79,7 @@ void writeCsv(const std::string& path, const std::vector<CaseRow>& rows, const s
   }
 }
 
-void writeJson(const std::string& path, const std::vector<CaseRow>& rows, const std::vector<double>& order) {
+void writeJson(std::ostream& out, const std::vector<CaseRow>& rows, const std::vector<double>& order) {
   nlohmann::ordered_json doc = nlohmann::ordered_json::array();
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const CaseRow& r = rows[i];
@@ -86,7 +93,37 @@ void writeJson(const std::string& path, const std::vector<CaseRow>& rows, const 
     j["order"] = std::isnan(order[i]) ? nlohmann::ordered_json() : nlohmann::ordered_json(order[i]);
     doc.push_back(j);
   }
-  std::ofstream(path) << doc.dump(2) << '\n';
+  out << doc.dump(2) << '\n';
+}
+
+/// Writes an output file (complete under its name or absent, io/output_file.h); false, with the
+/// error on stderr, when it cannot be written.
+template <class Write>
+bool writeOutput(const std::string& option, const std::string& path, Write write) {
+  fem_cloth::Expected<std::unique_ptr<fem_cloth::OutputFile>> file = fem_cloth::OutputFile::open(path);
+  fem_cloth::Status written = file ? fem_cloth::Status::success() : fem_cloth::Status(fem_cloth::Error{file.error()});
+  if (file) {
+    write((*file)->stream());
+    written = (*file)->commit();
+  }
+  if (!written) std::cerr << "fem_cloth_validate: " << option << ": " << written.error() << "\n";
+  return static_cast<bool>(written);
+}
+
+/// The output files checked before the work: each can be written, and they are two files.
+bool checkOutputs(const std::string& csv, const std::string& json) {
+  for (const auto& [option, path] : {std::pair{"--csv", &csv}, std::pair{"--json", &json}}) {
+    if (path->empty()) continue;
+    if (fem_cloth::Status s = fem_cloth::checkOutputPath(*path); !s) {
+      std::cerr << "fem_cloth_validate: " << option << ": " << s.error() << "\n";
+      return false;
+    }
+  }
+  if (!csv.empty() && !json.empty() && fem_cloth::sameOutputPath(csv, json)) {
+    std::cerr << "fem_cloth_validate: --csv and --json name the same file '" << csv << "': give two files\n";
+    return false;
+  }
+  return true;
 }
 
 void printTable(const std::vector<CaseRow>& rows, const std::vector<double>& order) {
@@ -127,25 +164,32 @@ int main(int argc, char** argv) {
   app.add_option("--case", cases, "cases to run (repeatable or comma-separated; default all)")
       ->delimiter(',')
       ->check(CLI::IsMember(fem_cloth::validate::caseNames()));
-  app.add_option("--cells", cells, "mesh resolutions, cells along the governing length (default 16)")
+  app.add_option("--cells", cells,
+                 "mesh resolutions, cells along the governing length (default 16; at most " +
+                     std::to_string(kMaxCells) + ")")
       ->delimiter(',')
-      ->check(CLI::Range(2, 512));
+      ->check(CLI::Range(2, kMaxCells));
   app.add_option("--model", model, "bending model of the bending cases (default midedge)")
       ->check(CLI::IsMember(fem_cloth::bendingModelNames()));
-  app.add_option("--gammas", gammas, "peirce: the gammas w l^3 / B (default 0.5,1,2,4,8,12,20)")
-      ->delimiter(',')
-      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--gammas", gammas, "peirce: the gammas w l^3 / B, each in (0, 100] (default 0.5,1,2,4,8,12,20)")
+      ->delimiter(',');
   app.add_option("--diagonals", diagonals,
                  "plate_clamped, plate_simply, beam_clamped: the triangulation (default alternating, "
                  "makeGrid's checkerboard; uniform; crossed)")
       ->check(CLI::IsMember(fem_cloth::validate::diagonalPatterns()));
   app.add_option("--csv", csv, "write the rows as CSV to this file");
   app.add_option("--json", jsonPath, "write the rows as JSON to this file");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
+  if (const std::optional<int> status = fem_cloth::parseToolCommandLine(app, argc, argv, "fem_cloth_validate")) {
+    return *status;
   }
+  for (double gamma : gammas) {
+    // gamma = w l^3 / B: a strip of no weight (0) has nothing to bend it.
+    if (!(gamma > 0.0 && gamma <= 100.0)) {
+      std::cerr << "fem_cloth_validate: --gammas: each must be in (0, 100], got " << gamma << "\n";
+      return 2;
+    }
+  }
+  if (!checkOutputs(csv, jsonPath)) return 2;
   if (cases.empty()) cases = fem_cloth::validate::caseNames();
   fem_cloth::validate::CaseOptions options;
   options.cells = cells;
@@ -153,7 +197,10 @@ int main(int argc, char** argv) {
   options.gammas = gammas;
   options.diagonals = diagonals;
   std::vector<CaseRow> rows;
+  // A case at fine resolutions takes minutes: on a terminal, say which one is running.
+  const bool progress = isatty(STDERR_FILENO) != 0;
   for (const std::string& name : cases) {
+    if (progress) std::cerr << "fem_cloth_validate: running " << name << " ...\n";
     fem_cloth::Expected<std::vector<CaseRow>> result = fem_cloth::validate::runCase(name, options);
     if (!result) {
       std::cerr << "fem_cloth_validate: " << result.error() << "\n";
@@ -163,8 +210,11 @@ int main(int argc, char** argv) {
   }
   const std::vector<double> order = orders(rows);
   printTable(rows, order);
-  if (!csv.empty()) writeCsv(csv, rows, order);
-  if (!jsonPath.empty()) writeJson(jsonPath, rows, order);
+  if (!csv.empty() && !writeOutput("--csv", csv, [&](std::ostream& out) { writeCsv(out, rows, order); })) return 2;
+  if (!jsonPath.empty() &&
+      !writeOutput("--json", jsonPath, [&](std::ostream& out) { writeJson(out, rows, order); })) {
+    return 2;
+  }
   int failed = 0;
   for (const CaseRow& r : rows) failed += r.pass() ? 0 : 1;
   std::cout << rows.size() - static_cast<std::size_t>(failed) << " rows pass or are reported, " << failed

@@ -208,5 +208,22 @@ class TestRefusals(SpecTestCase):
             Spec(path)
         self.assertIn("no such file 'missing.yaml'", str(caught.exception))
 
+    def test_huge_batches_are_counted_before_they_are_built(self):
+        # Issue 31: episodes 1e8 and range [3, 1e9, 1] were built in memory until killed. Refused
+        # at once, naming the count (999999997 = 1e9 - 3 values) and the limit.
+        self.refused("episodes: 100000000\n", "100000000 episodes", "--max-episodes")
+        self.refused("sweep: {mesh.rows: {range: [3, 1000000000, 1]}}\n", "'mesh.rows'", "999999997 values",
+                     "100000", "--max-episodes")
+        self.refused("sweep: {integrator.dt: {linspace: [0.001, 0.01, 100000000]}}\n", "100000000 values")
+        # The product of the sweeps: 400 x 300 = 120000 points.
+        self.refused("sweep: {mesh.rows: {range: [3, 403, 1]}, mesh.cols: {range: [3, 303, 1]}}\n",
+                     "120000 episodes", "400 x 300 sweep values x 1 episodes")
+        # At the limit it is taken; a higher limit takes more.
+        self.assertEqual(len(self.spec("episodes: 100000\n")), 100000)
+        path = os.path.join(self.folder, "spec.yaml")
+        with open(path, "w") as f:
+            f.write("scene: base.yaml\nepisodes: 100001\n")
+        self.assertEqual(len(Spec(path, max_episodes=200000)), 100001)
+
     def test_malformed_yaml(self):
         self.refused("random: [\n", "malformed YAML")

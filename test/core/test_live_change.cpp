@@ -123,5 +123,33 @@ TEST(LiveChange, BadPairsAreRefusedNamingTheCulpritAndNothingIsApplied) {
   ASSERT_FALSE(notYaml.ok());
   EXPECT_EQ(sceneDocumentToString(doc), text) << "the document was changed";
   EXPECT_TRUE(isLiveKey("obstacles.2.friction"));
+}
+
+// An obstacle command's entry that says something the command does not do (issue 31): a name
+// of its own (adding 'ball' with name: cup added 'ball'; moving with name: cup renamed it), or
+// a second YAML document (ignored). Each refused naming the culprit; the same name is taken.
+TEST(LiveChange, ObstacleEntriesThatContradictTheCommandAreRefused) {
+  const YAML::Node doc = YAML::Load(std::string(kScene) + "obstacles: [{name: ball, type: sphere, center: [0.2, 0.2, -0.5], radius: 0.1}]\n");
+  struct Case {
+    ObstacleEdit edit;
+    std::string name, entry;
+    std::vector<std::string> mentions;
+  };
+  const std::vector<Case> cases = {
+      {ObstacleEdit::Add, "cup", "{name: mug, type: sphere, center: [0, 0, -1], radius: 0.1}", {"'cup'", "mug", "name"}},
+      {ObstacleEdit::Move, "ball", "{name: cup, center: [0, 0, -1]}", {"'ball'", "cup", "name"}},
+      {ObstacleEdit::Move, "ball", "{center: [0, 0, -1]}\n---\n{center: [0, 0, -2]}", {"'ball'", "2 YAML documents"}},
+  };
+  for (const Case& c : cases) {
+    const Expected<LiveChange> change = applyObstacleChange(doc, c.edit, c.name, c.entry);
+    ASSERT_FALSE(change.ok()) << c.entry;
+    for (const std::string& m : c.mentions) EXPECT_NE(change.error().find(m), std::string::npos) << change.error();
+  }
+  // The command's own name in the entry is the same obstacle.
+  const Expected<LiveChange> same = applyObstacleChange(doc, ObstacleEdit::Move, "ball", "{name: ball, center: [0, 0, -1]}");
+  ASSERT_TRUE(same.ok()) << same.error();
+  ASSERT_EQ(same->scene.obstacles.size(), 1u);
+  EXPECT_EQ(same->scene.obstacles[0].name, "ball");
+  EXPECT_EQ(same->scene.obstacles[0].center, Eigen::Vector3d(0, 0, -1));
   EXPECT_FALSE(isLiveKey("obstacles.2.shape"));
 }

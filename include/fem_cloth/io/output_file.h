@@ -17,6 +17,15 @@ namespace fem_cloth {
 /// symbolic or hard link to an input counts); inputs that are empty or do not exist are skipped.
 Status checkNotAnInput(const std::string& output, const std::vector<std::string>& inputs);
 
+/// An error when `path` cannot be written as an output file, found before the work that makes
+/// it: its folder does not exist (or is not a folder, or cannot be written), or it names
+/// something other than a regular file (a folder, a device such as /dev/full).
+Status checkOutputPath(const std::string& path);
+
+/// Whether two output paths name the same file, whether or not it exists yet ("x.csv" and
+/// "./x.csv"; a link to the other).
+bool sameOutputPath(const std::string& a, const std::string& b);
+
 /// Creates an empty file of a new, unique name next to `path` (in its folder, so that renaming
 /// it to `path` is atomic): `path.partial-XXXXXX`.
 Expected<std::string> createTemporaryNextTo(const std::string& path);

@@ -19,6 +19,11 @@ namespace fem_cloth {
 /// practical size, far less than what would exhaust the memory of the YAML tree.
 constexpr std::uintmax_t kMaxSceneFileBytes = 16u << 20;
 
+/// Parses a scene's text (from a file, a bag, a parameter) into its document: at most
+/// kMaxSceneFileBytes, one YAML document (a second after --- is refused, not ignored), empty
+/// text an empty map. Errors start with `where`.
+Expected<YAML::Node> parseSceneText(const std::string& text, const std::string& where);
+
 /// Reads a scene document and applies `key.path=value` overrides (the value is YAML: a number,
 /// a word, or a [list]).
 Expected<YAML::Node> loadSceneDocument(const std::string& path,

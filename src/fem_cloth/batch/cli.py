@@ -22,7 +22,7 @@ import time
 from fem_cloth.batch.batch import Batch, BatchError, find_program, locked, verify
 from fem_cloth.batch.report import run_report
 from fem_cloth.batch.runner import Runner, RunnerError, default_workers
-from fem_cloth.batch.spec import Spec, SpecError
+from fem_cloth.batch.spec import DEFAULT_MAX_EPISODES, Spec, SpecError
 
 PROGRAM = "fem_cloth_batch"
 
@@ -69,6 +69,8 @@ def _run_parser():
                         "fem_cloth_output/batch/<spec name>); an earlier run there is resumed")
     parser.add_argument("--dry-run", action="store_true",
                         help="write and check the episodes' scenes, run nothing")
+    parser.add_argument("--max-episodes", type=int, default=DEFAULT_MAX_EPISODES, metavar="N",
+                        help=f"refuse a spec of more episodes (default {DEFAULT_MAX_EPISODES})")
     _cluster_options(parser)
     return parser
 
@@ -109,7 +111,8 @@ def run_main(argv):
     args = parser.parse_args(argv)
     _positive(parser, "--workers", args.workers)
     _positive(parser, "--retries", args.retries, 0)
-    spec = Spec(args.spec)
+    _positive(parser, "--max-episodes", args.max_episodes)
+    spec = Spec(args.spec, args.max_episodes)
     sim = find_program("fem_cloth_sim", args.sim)
     out = args.out or os.path.join("fem_cloth_output", "batch", os.path.splitext(os.path.basename(spec.path))[0])
     batch = Batch(spec, out, sim, say=_say)

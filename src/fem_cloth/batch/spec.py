@@ -232,9 +232,21 @@ def draw_template(template, rng):
     return template
 
 
-def sweep_values(where, value):
+# The most episodes a batch may have unless --max-episodes says more: each is a scene file, an
+# index row and a run; a spec with more is almost always a typo (range: [3, 1000000000, 1]),
+# and building it would fill the memory before any check.
+DEFAULT_MAX_EPISODES = 100000
+
+
+def _too_many(where, count, limit):
+    return SpecError(f"{where} gives {count} values, more than the {limit} episodes a batch may have "
+                     f"(--max-episodes N raises the limit)")
+
+
+def sweep_values(where, value, limit=DEFAULT_MAX_EPISODES):
     """The values a sweep key takes: a list, or {linspace|logspace: [first, last, count]} or
-    {range: [start, stop, step]} (integers, stop excluded)."""
+    {range: [start, stop, step]} (integers, stop excluded); counted before they are made, at
+    most `limit`."""
     if isinstance(value, list):
         if not value:
             raise SpecError(f"{where} has no values")
@@ -247,10 +259,14 @@ def sweep_values(where, value):
         start, stop, step = _numbers(where, args, 3, "integers")
         if not all(isinstance(v, int) for v in args) or step == 0 or not range(start, stop, step):
             raise SpecError(f"{where} needs integers [start, stop, step] giving at least one value")
+        if len(range(start, stop, step)) > limit:
+            raise _too_many(where, len(range(start, stop, step)), limit)
         return list(range(start, stop, step))
     first, last, count = _numbers(where, args, 3)
     if not isinstance(count, int) or count < 1:
         raise SpecError(f"{where}: the count must be an integer >= 1, got {count}")
+    if count > limit:
+        raise _too_many(where, count, limit)
     if form == "logspace" and not (first > 0 and last > 0):
         raise SpecError(f"{where}: first and last must be > 0")
     if count == 1:
@@ -273,8 +289,9 @@ class Episode:
 class Spec:
     """A checked spec. Paths in it are relative to the spec file."""
 
-    def __init__(self, path):
+    def __init__(self, path, max_episodes=DEFAULT_MAX_EPISODES):
         self.path = os.path.abspath(path)
+        self.max_episodes = max_episodes
         try:
             with open(path, encoding="utf-8") as f:
                 self.text = f.read()
@@ -308,8 +325,17 @@ class Spec:
         if self.timeout is not None and not (_is_number(self.timeout) and self.timeout > 0):
             raise SpecError(f"{self._where('timeout')} must be a number of seconds > 0")
         self.fixed = self._section(data, "set")
-        self.sweep = {k: sweep_values(f"{self._where('sweep')} '{k}'", v)
+        self.sweep = {k: sweep_values(f"{self._where('sweep')} '{k}'", v, self.max_episodes)
                       for k, v in self._section(data, "sweep").items()}
+        # Counted, not built: the points are the product of the sweeps' values.
+        count = self.episodes
+        for values in self.sweep.values():
+            count *= len(values)
+        if count > self.max_episodes:
+            product = (f" ({' x '.join(str(len(v)) for v in self.sweep.values())} sweep values x "
+                       f"{self.episodes} episodes)" if self.sweep else "")
+            raise SpecError(f"{self.path}: {count} episodes{product}, more than the {self.max_episodes} "
+                            f"a batch may have (--max-episodes N raises the limit)")
         self.random = self._section(data, "random")
         for key, template in self.random.items():
             if check_template(self._where("random"), key, template) == 0:
