@@ -132,7 +132,8 @@ TEST(FailingStep, PausesSaysWhyOnceAndResumesWhenTheCauseIsGone) {
   EXPECT_EQ(linesWith(rosgraph_msgs::Log::ERROR, ""), 1u) << "not one ERROR line";
   EXPECT_EQ(linesWith(rosgraph_msgs::Log::ERROR, "~resume"), 1u) << "the ERROR line does not say how to go on";
   EXPECT_EQ(linesWith(rosgraph_msgs::Log::ERROR, "inside obstacle 'blocker'"), 1u);
-  EXPECT_LE(linesWith(rosgraph_msgs::Log::WARN, "inside obstacle 'blocker'"), 2u)
+  // One WARN, at the first failed attempt; the later attempts are counted, not logged.
+  EXPECT_EQ(linesWith(rosgraph_msgs::Log::WARN, "inside obstacle 'blocker'"), 1u)
       << "the failed attempts logged one by one";
 
   // The cause removed, ~resume retries the step, and the run goes on.
