@@ -454,25 +454,18 @@ void ClothNode::doReset() {
     driver_->setEpoch(ros::Time::now());
   }
   segmentToAnnounce_ = false;
-  stoppedBecause_.clear();
-  pausedBecause_.clear();
-  pausedByLag_ = false;
-  frameWaitSince_.reset();
-  failedAttempts_ = 0;
+  clearSelfPause();
   lastReport_ = StepReport();
   publishOutputs(lastReport_, 0.0, true);
   control_->resetDone();
 }
 
 void ClothNode::restartRealTime() {
-  // ~resume retries the step that stopped the run.
-  if (!stoppedBecause_.empty() && lastProblem_ == stoppedBecause_) lastProblem_ = "resumed after being " + stoppedBecause_;
-  if (!pausedBecause_.empty() && lastProblem_ == pausedBecause_) lastProblem_ = "resumed after: " + pausedBecause_;
-  stoppedBecause_.clear();
-  pausedBecause_.clear();
-  pausedByLag_ = false;
-  frameWaitSince_.reset();  // a new wait of frame_wait_timeout
-  failedAttempts_ = 0;
+  // ~resume retries the step that stopped the run, and waits for missing frames anew.
+  if (selfPause_ != SelfPause::None && lastProblem_ == selfPauseWhy_) {
+    lastProblem_ = (selfPause_ == SelfPause::FailingStep ? "resumed after being " : "resumed after: ") + selfPauseWhy_;
+  }
+  clearSelfPause();
   // Real time restarts from here: the pause is not made up for. A recorder that subscribed
   // while we were paused gets the current state first.
   dueOrigin_ = ros::Time::now().toSec() - driver_->simulator().time() / realTimeFactor_;
@@ -563,8 +556,9 @@ void ClothNode::stepOnce() {
     ++failedSteps_;
     lastProblem_ = report.error;
     diagnosticsSoon_ = true;
-  } else {
-    stoppedBecause_.clear();  // a ~step got past what stopped the run
+  } else if (selfPause_ == SelfPause::FailingStep) {
+    selfPause_ = SelfPause::None;  // a ~step got past what stopped the run
+    selfPauseWhy_.clear();
   }
   // Real-time factor over windows of about a second of wall time.
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
@@ -620,15 +614,17 @@ bool ClothNode::lagAllowsStep() {
   const std::string where = "the node is " + fixedText(behind, 2) + " s behind ROS time; tf keeps " +
                             numberText(tfCacheTime_) + " s (tf_cache_time)";
   if (behind > maxLag_ && lagPolicyPause_) {
-    pauseBecause(where + ", and max_lag is " + numberText(maxLag_) + " s (lag_policy pause)", true);
+    pauseBecause(where + ", and max_lag is " + numberText(maxLag_) + " s (lag_policy pause)", SelfPause::Lag);
     return false;
   }
-  const std::vector<std::string> frames = followedFrames();
-  if (behind > wall && !frames.empty()) {
-    pauseBecause(where + ": the transforms of frame '" + frames.front() + "' for its next step would be gone "
-                 "within tf_timeout (lag_policy warn pauses at tf_cache_time - tf_timeout = " + numberText(wall) +
-                 " s rather than step with another time's transforms)", true);
-    return false;
+  if (behind > wall) {
+    const std::vector<std::string> frames = followedFrames();
+    if (!frames.empty()) {
+      pauseBecause(where + ": the transforms of frame '" + frames.front() + "' for its next step would be gone "
+                   "within tf_timeout (lag_policy warn pauses at tf_cache_time - tf_timeout = " + numberText(wall) +
+                   " s rather than step with another time's transforms)", SelfPause::Lag);
+      return false;
+    }
   }
   if (behind > maxLag_) {
     lastProblem_ = where + ", more than max_lag = " + numberText(maxLag_) + " s (lag_policy warn)";
@@ -638,12 +634,23 @@ bool ClothNode::lagAllowsStep() {
   return true;
 }
 
-void ClothNode::pauseBecause(const std::string& why, bool lag) {
+void ClothNode::pauseItself(SelfPause cause, const std::string& why) {
   control_->pause();
-  pausedBecause_ = why;
-  pausedByLag_ = lag;
+  selfPause_ = cause;
+  selfPauseWhy_ = why;
   lastProblem_ = why;
   publishDiagnostics(true);
+}
+
+void ClothNode::clearSelfPause() {
+  selfPause_ = SelfPause::None;
+  selfPauseWhy_.clear();
+  frameWaitSince_.reset();  // a new wait of frame_wait_timeout
+  failedAttempts_ = 0;
+}
+
+void ClothNode::pauseBecause(const std::string& why, SelfPause cause) {
+  pauseItself(cause, why);
   ROS_WARN_STREAM("fem_cloth_node: paused: " << why << ". The state stays at step " << driver_->stepIndex()
                   << " (t = " << numberText(driver_->simulator().time()) << " s); ~resume goes on from ROS "
                   "time now (what the node fell behind is not made up for), ~reset starts over");
@@ -677,7 +684,7 @@ bool ClothNode::followedFramesArrived() {
   pauseBecause("no transform of frame(s) " + names + ", which the scene follows, came within frame_wait_timeout = " +
                numberText(frameWaitTimeout_) + " s before the first step (is their publisher running" +
                std::string(timeMode_ == TimeMode::Fast ? ", on this node's /clock" : "") +
-               "?): not stepping without them; publish them and call ~resume", false);
+               "?): not stepping without them; publish them and call ~resume", SelfPause::Frames);
   return false;
 }
 
@@ -810,20 +817,19 @@ void ClothNode::publishDiagnostics(bool force) {
   add("energy balance", balance.text());
   add("pin jumps", std::to_string(energies.pinJumps));
   if (!balance.ok()) status.message = balance.warning();
-  add("paused by a failing step", stoppedBecause_.empty() ? "false" : "true");
-  if (!stoppedBecause_.empty()) status.message = stoppedBecause_;
+  add("paused by a failing step", selfPause_ == SelfPause::FailingStep ? "true" : "false");
   // The lag and how far back tf reaches (docs/node.md, Robot in the loop).
   add("lag (s)", fixedText(lag(), 3));
   add("tf cache (s)", numberText(tfCacheTime_));
   add("max lag (s)", numberText(maxLag_));
   add("lag policy", lagPolicyPause_ ? "pause" : "warn");
-  add("paused by lag", pausedByLag_ ? "true" : "false");
+  add("paused by lag", selfPause_ == SelfPause::Lag ? "true" : "false");
   std::string waiting;
   for (const std::string& f : framesWaitedFor_) waiting += (waiting.empty() ? "" : " ") + f;
   add("waiting for frames", waiting);
-  if (!pausedBecause_.empty()) status.message = pausedBecause_;
+  if (selfPause_ != SelfPause::None) status.message = selfPauseWhy_;
   status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok() || !pausedBecause_.empty())
+                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok() || selfPause_ != SelfPause::None)
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
   array.status.push_back(status);
@@ -948,16 +954,13 @@ bool ClothNode::countFailedAttempt() {
 }
 
 void ClothNode::stopOnFailure() {
-  control_->pause();
   const std::uint64_t step = driver_->stepIndex();
-  stoppedBecause_ = "paused after " + std::to_string(failedAttempts_) +
-                    " failed attempts at the same step (max_failed_attempts): " + lastReport_.error;
-  failedAttempts_ = 0;
-  lastProblem_ = stoppedBecause_;
   // The last good state (a failed step leaves it as it was), unless it went out already.
   publishOutputs(StepReport(), 0.0, true);
-  publishDiagnostics(true);
-  ROS_ERROR_STREAM("fem_cloth_node: " << stoppedBecause_ << ". The state stays at step " << step
+  pauseItself(SelfPause::FailingStep, "paused after " + std::to_string(failedAttempts_) +
+                                          " failed attempts at the same step (max_failed_attempts): " + lastReport_.error);
+  failedAttempts_ = 0;
+  ROS_ERROR_STREAM("fem_cloth_node: " << selfPauseWhy_ << ". The state stays at step " << step
                    << " (t = " << numberText(driver_->simulator().time())
                    << " s), published on ~state. To go on, remove the cause (an obstacle in the "
                       "cloth: ~remove_obstacle or ~move_obstacle; a pin: release or move it) and "

@@ -141,9 +141,15 @@ class ClothNode {
   double lag() const;
   /// Applies lag_policy before a step while running in real_time mode; false when it paused.
   bool lagAllowsStep();
-  /// Pauses the node by itself (`lag`: for its lag; else missing frames): says why on
-  /// /diagnostics and in one line.
-  void pauseBecause(const std::string& why, bool lag);
+  /// Why the node paused itself, if it did: a step that kept failing, the lag, or the frames
+  /// the scene follows missing before the first step.
+  enum class SelfPause { None, FailingStep, Lag, Frames };
+  /// Pauses the node by itself for `cause`, `why` on /diagnostics at once (the caller logs).
+  void pauseItself(SelfPause cause, const std::string& why);
+  /// Pauses the node by itself for its lag or for missing frames, and says why in one line.
+  void pauseBecause(const std::string& why, SelfPause cause);
+  /// Forgets why the node paused itself, and the attempts and frame wait behind it (~resume, ~reset).
+  void clearSelfPause();
   /// The tf frames the scene follows now: those of obstacles and of frame-following pins.
   std::vector<std::string> followedFrames() const;
   /// Before the first step: false while a followed frame has no transform in tf (pausing with
@@ -210,9 +216,8 @@ class ClothNode {
   StepReport lastReport_;
   std::uint64_t failedSteps_ = 0;
   int failedAttempts_ = 0;      // failed attempts in a row at the current step while running
-  std::string stoppedBecause_;  // while paused by a failing step: why (the core's refusal)
-  std::string pausedBecause_;   // while paused by the lag or by missing frames: why
-  bool pausedByLag_ = false;
+  SelfPause selfPause_ = SelfPause::None;  // while paused by itself: for what
+  std::string selfPauseWhy_;                // and why, in words (the core's refusal for a failing step)
   std::optional<ros::WallTime> frameWaitSince_;  // waiting for followed frames since
   std::vector<std::string> framesWaitedFor_;
   ros::WallTime lastClock_;  // wall time of the last /clock
