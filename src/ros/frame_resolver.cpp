@@ -3,8 +3,8 @@
 #include <tf2/exceptions.h>
 #include <tf2_eigen/tf2_eigen.h>
 
-#include <cstdio>
 #include <optional>
+#include <sstream>
 
 #include "fem_cloth/ros/time_checks.h"
 #include "fem_cloth/ros/transform_wait.h"
@@ -12,13 +12,6 @@
 namespace fem_cloth {
 
 namespace {
-
-// A ROS time in full, to the microsecond ("1796460000.123457", not 1.79646e+09).
-std::string fullTime(const ros::Time& t) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%u.%06u", t.sec, t.nsec / 1000u);
-  return text;
-}
 
 // Why tf cannot give `frame` at `at` when `at` lies further before the frame's newest transform
 // than tf's cache keeps; nullopt when it is within the cache. tf2 keeps, per frame, the transforms
@@ -31,7 +24,9 @@ std::optional<std::string> goneFromTf(const tf2::BufferCore& tf, const std::stri
   const double kept = const_cast<tf2::BufferCore&>(tf).getCacheLength().toSec();
   const double before = secondsBetween(newest, at);
   if (before <= kept) return std::nullopt;
-  return "tf no longer holds frame '" + frame + "' at " + fullTime(at) + " s: that is " + numberText(before) +
+  std::ostringstream when;  // in full, as ros::Time prints itself (not 1.79646e+09)
+  when << at;
+  return "tf no longer holds frame '" + frame + "' at " + when.str() + " s: that is " + numberText(before) +
          " s before its newest transform, and tf keeps " + numberText(kept) +
          " s (tf_cache_time): the node is too far behind ROS time";
 }

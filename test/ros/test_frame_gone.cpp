@@ -39,7 +39,7 @@ TEST(FrameGone, ATimeTfNoLongerHoldsIsNamedNotReplaced) {
   // (8 s, 0.5 s away: within tf_timeout) must not stand in.
   const FramePose gone = frames.pose("finger", kEpoch + ros::Duration(7.5));
   EXPECT_FALSE(gone.pose) << "served x = " << gone.pose->translation().x() << " for t = 7.5 s: " << gone.inexact;
-  EXPECT_TRUE(contains(gone.why, "tf no longer holds frame 'finger' at 1007.500000 s")) << gone.why;
+  EXPECT_TRUE(contains(gone.why, "tf no longer holds frame 'finger' at 1007.500000000 s")) << gone.why;
   EXPECT_TRUE(contains(gone.why, "2.5 s before its newest transform")) << gone.why;
   EXPECT_TRUE(contains(gone.why, "tf keeps 2 s")) << gone.why;
 }
