@@ -445,6 +445,7 @@ void ClothNode::restartRealTimeFactorWindow() {
 
 void ClothNode::doReset() {
   driver_->reset();
+  clock_ = ros::Time();  // fast mode: /clock starts over with the run
   restartRealTimeFactorWindow();  // a window across the reset measured a negative factor
   tfWait_->clear();
   dueOrigin_ = ros::Time::now().toSec();
@@ -579,10 +580,19 @@ void ClothNode::stepOnce() {
 
 void ClothNode::publishClock() {
   if (timeMode_ != TimeMode::Fast) return;
+  clock_ = std::max(clock_, driver_->now());
   rosgraph_msgs::Clock clock;
-  clock.clock = driver_->now();
+  clock.clock = clock_;
   clockPub_.publish(clock);
   lastClock_ = ros::WallTime::now();
+}
+
+void ClothNode::clockToStepEnd() {
+  if (timeMode_ != TimeMode::Fast) return;
+  const ros::Time end = driver_->stampOf(driver_->simulator().time() + driver_->simulator().settings().dt);
+  if (end <= clock_) return;  // announced already: keepClockGoing() repeats it
+  clock_ = end;
+  publishClock();
 }
 
 void ClothNode::keepClockGoing() {
@@ -915,7 +925,8 @@ void ClothNode::turn() {
     return;
   }
   // Wait (up to tf_timeout) for the transforms this step needs at exactly its times, so that a
-  // replay of the run sees the same frames.
+  // replay of the run sees the same frames; in lock-step, once /clock has reached them.
+  clockToStepEnd();
   if (!transformsReady()) {
     control_->wait(0.001);
     return;

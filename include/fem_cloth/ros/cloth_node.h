@@ -131,8 +131,13 @@ class ClothNode {
   /// Pauses the node on the step that keeps failing: the last good state out, an ERROR on
   /// /diagnostics with the cause, one ERROR line saying how to go on.
   void stopOnFailure();
-  /// /clock at the simulation time (fast mode only).
+  /// /clock at the simulation time (fast mode only), or where clockToStepEnd() took it, if later:
+  /// /clock never goes back within a run (~reset starts it over).
   void publishClock();
+  /// Lock-step (fast mode): /clock at the end of the step about to be taken, before the node
+  /// waits for that step's transforms, which a robot stack on simulation time publishes only once
+  /// /clock has reached their time.
+  void clockToStepEnd();
   /// In fast mode, /clock again (same time) when none went out for 0.1 s of wall time: while
   /// paused or waiting, so that nodes on simulation time started later get a time.
   void keepClockGoing();
@@ -221,6 +226,7 @@ class ClothNode {
   std::optional<ros::WallTime> frameWaitSince_;  // waiting for followed frames since
   std::vector<std::string> framesWaitedFor_;
   ros::WallTime lastClock_;  // wall time of the last /clock
+  ros::Time clock_;          // and the time it gave
   // The step index and stamp of the state last published on ~state (none before the first).
   std::optional<std::pair<std::uint64_t, ros::Time>> publishedState_;
   std::array<std::uint64_t, kCommandTopics> inboxRefusalsTold_{};
