@@ -18,6 +18,7 @@
 #include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/time_checks.h"
+#include "fem_cloth/ros/time_text.h"
 
 namespace fem_cloth {
 
@@ -105,8 +106,8 @@ Status checkStamp(const ros::Time& stamp, const ros::Time& begin, const std::str
   if (stamp.isZero()) return Status::success();  // "now" for commands, static for tf
   const double distance = std::abs(secondsBetween(stamp, begin));
   if (!(distance <= kMaxRecordingSpan)) {
-    return Error{what + " has the stamp " + numberText(stamp.toSec()) + " s, " + numberText(distance) +
-                 " s from the start of the recording (" + numberText(begin.toSec()) +
+    return Error{what + " has the stamp " + rosTimeText(stamp) + " s, " + numberText(distance) +
+                 " s from the start of the recording (" + rosTimeText(begin) +
                  " s): more than the " + numberText(kMaxRecordingSpan) + " s a recording can span"};
   }
   return Status::success();
@@ -120,7 +121,7 @@ class RunReader {
   Status add(const rosbag::MessageInstance& m) {
     const std::string& topic = m.getTopic();
     const std::string what = "message " + std::to_string(++count_) + " (" + printableText(topic) + ", bag time " +
-                             numberText(m.getTime().toSec()) + " s)";
+                             rosTimeText(m.getTime()) + " s)";
     FEM_CLOTH_CHECK(checkStamp(m.getTime(), run_.begin, what));
     if (topic == topics_.scene) {
       if (auto msg = m.instantiate<std_msgs::String>()) run_.sceneYaml = msg->data;
@@ -177,9 +178,9 @@ class RunReader {
     if (!run_.states.empty() && msg.step < run_.states.back().step) {
       return Error{"it spans a reset of the node (~reset): the state's step goes back from " +
                    std::to_string(run_.states.back().step) + " to " + std::to_string(msg.step) +
-                   " at bag time " + numberText(time.toSec()) +
-                   " s; replay the part before or after it (rosbag filter ... \"t.to_sec() < " +
-                   numberText(time.toSec()) + "\", then --scene for the part after)"};
+                   " at bag time " + rosTimeText(time) +
+                   " s; replay the part before or after it (rosbag filter ... \"t.to_nsec() < " +
+                   std::to_string(time.toNSec()) + "\", then --scene for the part after)"};
     }
     if (run_.frame.empty()) run_.frame = msg.header.frame_id;
     run_.states.push_back({msg.step, msg.header.stamp, msg.state_hash});

@@ -17,6 +17,7 @@
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/simulation_driver.h"
 #include "fem_cloth/ros/time_checks.h"
+#include "fem_cloth/ros/time_text.h"
 
 namespace fem_cloth {
 
@@ -83,7 +84,7 @@ Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) {
   const RecordedState& first = run->states.front();
   if (!timeline || std::abs(secondsBetween(timeline->origin(), run->begin)) > kMaxRecordingSpan) {
     return Error{"bag '" + run->path + "': its first state (step " + std::to_string(first.step) +
-                 ", stamp " + numberText(first.stamp.toSec()) + " s) does not fit a run that "
+                 ", stamp " + rosTimeText(first.stamp) + " s) does not fit a run that "
                  "started within the recording at the step " + numberText(recordedDt(*run, dt)) + " s"};
   }
   return *timeline;

@@ -4,9 +4,9 @@
 #include <tf2_eigen/tf2_eigen.h>
 
 #include <optional>
-#include <sstream>
 
 #include "fem_cloth/ros/time_checks.h"
+#include "fem_cloth/ros/time_text.h"
 #include "fem_cloth/ros/transform_wait.h"
 
 namespace fem_cloth {
@@ -24,9 +24,7 @@ std::optional<std::string> goneFromTf(const tf2::BufferCore& tf, const std::stri
   const double kept = const_cast<tf2::BufferCore&>(tf).getCacheLength().toSec();
   const double before = secondsBetween(newest, at);
   if (before <= kept) return std::nullopt;
-  std::ostringstream when;  // in full, as ros::Time prints itself (not 1.79646e+09)
-  when << at;
-  return "tf no longer holds frame '" + frame + "' at " + when.str() + " s: that is " + numberText(before) +
+  return "tf no longer holds frame '" + frame + "' at " + rosTimeText(at) + " s: that is " + numberText(before) +
          " s before its newest transform, and tf keeps " + numberText(kept) +
          " s (tf_cache_time): the node is too far behind ROS time";
 }

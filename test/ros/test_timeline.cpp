@@ -3,11 +3,15 @@
 // whose pending commands move with a new segment, so that a command stamped during a pause takes
 // effect at the first step after it.
 #include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <std_msgs/String.h>
 
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/simulation_driver.h"
 #include "fem_cloth/ros/timeline.h"
+#include "../temp_dir.h"
 
 using namespace fem_cloth;
 
@@ -209,4 +213,48 @@ TEST(CommandQueue, RetimeKeepsTheOrderOfEqualTimes) {
   EXPECT_EQ(headerOf(due[1]).stamp, at(3.0));
   EXPECT_TRUE(queue.takeDue(3.9).empty());
   EXPECT_EQ(queue.takeDue(4.0).size(), 1u);
+}
+
+// A recording that spans a reset of the node is refused with a `rosbag filter` expression that
+// should keep the part before the reset, and the bag time of the reset. On a clock of today
+// (1796460000 s) the time was printed as 1.79646e+09, before every message: the filter
+// "t.to_sec() < 1.79646e+09" kept nothing. Now the time is printed in full, and the filter
+// compares nanoseconds, exactly.
+TEST(RunReading, TheResetRefusalsFilterKeepsThePartBeforeTheReset) {
+  const fem_cloth::test::TempDir dir("fem_cloth_reset_refusal");
+  const std::string path = dir.path("reset.bag");
+  const ros::Time epoch(1796460000, 123000000);
+  std::vector<ros::Time> received;
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    std_msgs::String scene;
+    scene.data = "integrator: {dt: 0.01}\n";
+    bag.write("/fem_cloth_node/scene", epoch, scene);
+    // Steps 0..5, then the node reset: steps 0..2 again, each received 10 ms after the last.
+    const std::vector<std::uint64_t> steps{0, 1, 2, 3, 4, 5, 0, 1, 2};
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      ClothState s;
+      s.step = steps[k];
+      s.header.stamp = epoch + ros::Duration(0, 10000000 * static_cast<std::int32_t>(k));
+      s.positions.resize(1);
+      received.push_back(epoch + ros::Duration(0, 10000000 * static_cast<std::int32_t>(k + 1)));
+      bag.write("/fem_cloth_node/state", received.back(), s);
+    }
+  }
+  const Expected<RecordedRun> run = readRun(path);
+  ASSERT_FALSE(run.ok());
+  const std::string& why = run.error();
+  EXPECT_NE(why.find("spans a reset"), std::string::npos) << why;
+  // The reset's state came at 1796460000.193 s (epoch + 7 x 10 ms).
+  EXPECT_NE(why.find("at bag time 1796460000.193000000 s"), std::string::npos) << why;
+  const std::string filter = "t.to_nsec() < ";
+  const std::size_t at = why.find(filter);
+  ASSERT_NE(at, std::string::npos) << why;
+  const std::uint64_t before = std::stoull(why.substr(at + filter.size()));
+  EXPECT_EQ(before, 1796460000193000000ull) << why;
+  // What the filter keeps: the scene and the six states before the reset.
+  int kept = 0;
+  rosbag::Bag bag(path);
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) kept += m.getTime().toNSec() < before ? 1 : 0;
+  EXPECT_EQ(kept, 7) << why;
 }
