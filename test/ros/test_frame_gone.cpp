@@ -8,6 +8,9 @@
 
 #include "../rostest/node_test_support.h"  // frameAt
 #include "fem_cloth/ros/frame_resolver.h"
+#include "fem_cloth/ros/tf_intake.h"
+
+#include <limits>
 
 using namespace fem_cloth;
 
@@ -55,4 +58,31 @@ TEST(FrameGone, AFrameThatHasJustAppearedStillServesItsFirstTransform) {
   ASSERT_TRUE(first.pose) << first.why;
   EXPECT_NEAR(first.pose->translation().x(), 9.8, 1e-5);  // the bisection stops within 1e-6 s
   EXPECT_TRUE(contains(first.inexact, "first transform")) << first.inexact;
+}
+
+// tf2 refuses a transform whose stamp it holds for the frame already (TF_REPEATED_DATA), and one
+// further before the frame's newest than it keeps (TF_OLD_DATA), saying so only on its console.
+// The node's tf intake names them: a publisher that repeats stamps (robot_state_publisher fed the
+// same joint state twice) is told apart from a node too far behind. Same cache and finger as above.
+TEST(FrameGone, ARefusedTransformSaysWhetherItsStampIsRepeatedOrTooOld) {
+  tf2::BufferCore tf(ros::Duration(2.0));
+  for (int k = 0; k <= 100; ++k) ASSERT_TRUE(insertTransform(tf, fingerAt(0.1 * k), "test", false).ok());
+  // 9.5 s again: tf holds it (within the cache, 8..10 s).
+  const Status repeated = insertTransform(tf, fingerAt(9.5), "test", false);
+  ASSERT_FALSE(repeated.ok());
+  EXPECT_TRUE(contains(repeated.error(), "transform 'world' -> 'finger': refused by tf2: a repeated timestamp, "
+                                         "1009.500000000 s")) << repeated.error();
+  EXPECT_TRUE(contains(repeated.error(), "TF_REPEATED_DATA")) << repeated.error();
+  // 7.5 s: 2.5 s before the newest (10 s), more than the 2 s tf keeps.
+  const Status old = insertTransform(tf, fingerAt(7.5), "test", false);
+  ASSERT_FALSE(old.ok());
+  EXPECT_TRUE(contains(old.error(), "its stamp 1007.500000000 s is more than the 2 s tf keeps")) << old.error();
+  EXPECT_TRUE(contains(old.error(), "TF_OLD_DATA")) << old.error();
+  EXPECT_FALSE(contains(old.error(), "repeated")) << old.error();
+  // Not a timestamp at all: a NaN is refused as such, not taken for a repeat.
+  geometry_msgs::TransformStamped nan = fingerAt(9.5);
+  nan.transform.translation.x = std::numeric_limits<double>::quiet_NaN();
+  const Status bad = insertTransform(tf, nan, "test", false);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_TRUE(contains(bad.error(), "not finite")) << bad.error();
 }
