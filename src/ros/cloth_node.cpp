@@ -23,7 +23,7 @@ namespace {
 
 std::string defaultSceneFile() {
   const std::string share = ros::package::getPath("fem_cloth");
-  return share.empty() ? std::string() : share + "/config/hanging_cloth.yaml";
+  return share.empty() ? std::string() : share + "/config/default_cloth.yaml";
 }
 
 // Steps between publications for a rate in Hz (0: every step).

@@ -148,3 +148,23 @@ TEST(MaterialsLab, FromElongationIsForcePerWidthOverStrain) {
   const test::ProgramResult bad = test::runProgram(FEM_CLOTH_MATERIALS_EXE, {"from-elongation", "--force", "5", "--width", "0.05"}, dir);
   EXPECT_EQ(bad.status, 2);
 }
+
+// The node's default scene (config/default_cloth.yaml; the node, cloth.launch and
+// cloth_rviz.launch take it when no scene is given) is a fabric: cotton's stretch, density and
+// bending, as config/materials/cotton.yaml gives them (read here on its own), not the stiff
+// sheet without bending of hanging_cloth.yaml (which stays as it is for benchmarks and tests).
+TEST(MaterialPresets, TheDefaultSceneIsCottonWithItsBending) {
+  const Expected<Scene> s = loadScene(std::string(FEM_CLOTH_CONFIG_DIR) + "/default_cloth.yaml");
+  ASSERT_TRUE(s.ok()) << s.error();
+  const YAML::Node cotton = YAML::LoadFile(kMaterials + "/cotton.yaml");
+  EXPECT_EQ(*s->youngsModulus, cotton["material"]["youngs_modulus"].as<double>());
+  EXPECT_EQ(*s->poissonRatio, cotton["material"]["poisson_ratio"].as<double>());
+  EXPECT_EQ(s->thickness, cotton["material"]["thickness"].as<double>());
+  EXPECT_EQ(s->density, cotton["material"]["density"].as<double>());
+  EXPECT_EQ(s->bendingStiffness, cotton["bending"]["stiffness"].as<double>());
+  EXPECT_GT(s->bendingStiffness, 0.0);
+  const Expected<Scene> sheet = loadScene(std::string(FEM_CLOTH_CONFIG_DIR) + "/hanging_cloth.yaml");
+  ASSERT_TRUE(sheet.ok()) << sheet.error();
+  EXPECT_EQ(sheet->bendingStiffness, 0.0);
+  EXPECT_TRUE(buildSimulation(*s).ok());
+}

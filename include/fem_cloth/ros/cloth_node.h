@@ -2,7 +2,7 @@
 // SimulationDriver: it reads parameters, wires topics and services, keeps time and publishes.
 //
 // Private parameters (beside the scene keys, see docs/scenes.md):
-//   scene_file        string  a scene YAML (default: the package's config/hanging_cloth.yaml
+//   scene_file        string  a scene YAML (default: the package's config/default_cloth.yaml
 //                             when no scene key is set under ~)
 //   frame_id          string  simulation frame ("world")
 //   time_mode         string  real_time: step in step with ROS time (wall clock, or /clock with
