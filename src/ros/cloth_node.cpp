@@ -441,6 +441,7 @@ CommandCounts ClothNode::commandCounts(CommandTopic topic) const {
 void ClothNode::restartRealTimeFactorWindow() {
   rtfWindowStart_ = ros::WallTime::now();
   rtfWindowSimStart_ = driver_->simulator().time();
+  rtfWindowStepWall_ = 0.0;
 }
 
 void ClothNode::doReset() {
@@ -561,12 +562,17 @@ void ClothNode::stepOnce() {
     selfPause_ = SelfPause::None;  // a ~step got past what stopped the run
     selfPauseWhy_.clear();
   }
-  // Real-time factor over windows of about a second of wall time.
+  // Real-time factor over windows of about a second of wall time. The node cannot keep up when
+  // its steps alone take longer than real time allows; a window that is slow because the node
+  // waited (for rosbag play to start, for frames, for /clock) is not that.
+  rtfWindowStepWall_ += stepWallTime_;
   const double window = (ros::WallTime::now() - rtfWindowStart_).toSec();
   if (window >= 1.0) {
-    realTimeFactorMeasured_ = (driver_->simulator().time() - rtfWindowSimStart_) / window;
+    const double simulated = driver_->simulator().time() - rtfWindowSimStart_;
+    realTimeFactorMeasured_ = simulated / window;
+    const bool stepsTooSlow = rtfWindowStepWall_ * realTimeFactor_ > simulated;
     restartRealTimeFactorWindow();
-    if (timeMode_ == TimeMode::RealTime && !control_->paused() &&
+    if (timeMode_ == TimeMode::RealTime && !control_->paused() && stepsTooSlow &&
         realTimeFactorMeasured_ < 0.9 * realTimeFactor_) {
       ROS_WARN_STREAM_THROTTLE(5.0, "fem_cloth_node: cannot keep up with real time: real-time factor "
                                         << realTimeFactorMeasured_ << " (a step takes "

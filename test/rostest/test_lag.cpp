@@ -8,6 +8,7 @@
 // (x = 3 + 0.2 (t - t0)); every obstacle marker shows it exactly where the frame was at the
 // marker's stamp (tf interpolates a linear motion exactly), never where it was at another time.
 #include <diagnostic_msgs/DiagnosticArray.h>
+#include <rosgraph_msgs/Log.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <cstdlib>
@@ -90,6 +91,16 @@ TEST(Lag, ReportedAndBoundedBeforeTfLosesTheTransforms) {
     }
   });
 
+  // The node's own steps are slower than real time (each takes step_delay of wall time for dt):
+  // it says it cannot keep up (test_realtime_factor checks it does not when it merely waited).
+  std::mutex logMutex;
+  std::vector<std::string> cannotKeepUp;
+  Latest<rosgraph_msgs::Log> log("/rosout", [&](const rosgraph_msgs::Log& m) {
+    if (m.name != kNode || !contains(m.msg, "cannot keep up with real time")) return;
+    std::lock_guard<std::mutex> lock(logMutex);
+    cannotKeepUp.push_back(m.msg);
+  });
+
   // Diagnostics: the lag against its bounds, until the node pauses itself for the lag.
   std::vector<std::string> outOfBounds;
   std::size_t withLag = 0;
@@ -159,6 +170,8 @@ TEST(Lag, ReportedAndBoundedBeforeTfLosesTheTransforms) {
   ros::spinOnce();
   EXPECT_TRUE(outOfBounds.empty()) << outOfBounds.size() << " lags out of bounds, the first: " << outOfBounds.front();
   EXPECT_GT(placed, 0u) << "no obstacle marker after the frame came";
+  std::lock_guard<std::mutex> lock(logMutex);
+  EXPECT_FALSE(cannotKeepUp.empty()) << "steps " << delay / dt << " times slower than real time, and no warning";
   EXPECT_TRUE(misplaced.empty()) << misplaced.size() << " markers not where the frame was, the first: " << misplaced.front();
 }
 

@@ -217,6 +217,7 @@ class ClothNode {
   bool segmentToAnnounce_ = false;
   ros::WallTime rtfWindowStart_;
   double rtfWindowSimStart_ = 0.0, realTimeFactorMeasured_ = 0.0;
+  double rtfWindowStepWall_ = 0.0;  // s of wall time the window's steps took themselves
   double stepWallTime_ = 0.0;
   StepReport lastReport_;
   std::uint64_t failedSteps_ = 0;
