@@ -378,42 +378,59 @@ Status readContact(const YAML::Node& node, Scene& s) {
   return Status::success();
 }
 
-/// material.preset: merges a fabric preset (config/materials/<name>.yaml, or the folder
-/// $FEM_CLOTH_MATERIALS_DIR; a value with '/' or ending in .yaml is a file relative to the scene)
-/// under the scene's own keys: its material keys where the scene has none (not its E and nu
-/// when the scene gives mu or lambda), its bending stiffness and Poisson ratio likewise.
-Expected<YAML::Node> withMaterialPreset(const YAML::Node& document, const std::string& sourcePath) {
+/// The fabric presets a materials folder holds (its <name>.yaml files), sorted.
+std::vector<std::string> presetNames(const std::filesystem::path& folder) {
+  std::vector<std::string> known;
+  std::error_code ec;
+  for (const auto& f : std::filesystem::directory_iterator(folder, ec)) {
+    if (f.path().extension() == ".yaml") known.push_back(f.path().stem().string());
+  }
+  std::sort(known.begin(), known.end());
+  return known;
+}
+
+/// A preset is a name (letters, digits, '_' and '-'), never a path: a scene from a bag, a batch
+/// spec or a --set could otherwise make the reader open any file on the machine.
+bool isPresetName(const std::string& value) {
+  if (value.empty() || value.size() > 100) return false;
+  return std::all_of(value.begin(), value.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
+  });
+}
+
+/// material.preset: merges a fabric preset, <materials dir>/<name>.yaml (the package's
+/// config/materials, or the folder $FEM_CLOTH_MATERIALS_DIR), under the scene's own keys: its
+/// material keys where the scene has none (not its E and nu when the scene gives mu or lambda),
+/// its bending stiffness and Poisson ratio likewise.
+Expected<YAML::Node> withMaterialPreset(const YAML::Node& document) {
   // IsDefined() first: yaml-cpp throws when a missing key's node is asked anything else.
   if (!document.IsMap() || !document["material"].IsDefined() || !document["material"].IsMap() ||
       !document["material"]["preset"].IsDefined()) {
     return document;
   }
   const YAML::Node name = document["material"]["preset"];
-  if (!name.IsScalar()) return Error{"material.preset must be a preset name or file, got " + describe(name)};
+  if (!name.IsScalar()) return Error{"material.preset must be a preset name, got " + describe(name)};
   const std::string value = name.Scalar();
-  const bool isFile = value.find('/') != std::string::npos ||
-                      (value.size() > 5 && value.compare(value.size() - 5, 5, ".yaml") == 0);
   // The package's config/materials, found from the program's location (core/package_paths.h:
   // no source path compiled into this installed library), unless the environment names one.
   std::filesystem::path folder;
   if (const char* env = std::getenv("FEM_CLOTH_MATERIALS_DIR"); env != nullptr && *env != '\0') {
     folder = env;
-  } else if (!isFile) {
+  } else {
     const Expected<std::filesystem::path> found = findPackageFile("config/materials");
-    if (!found) return Error{"material.preset '" + value + "': " + found.error() + " (or set $FEM_CLOTH_MATERIALS_DIR)"};
+    if (!found) return Error{"material.preset '" + printableText(value, 100) + "': " + found.error() + " (or set $FEM_CLOTH_MATERIALS_DIR)"};
     folder = *found;
   }
-  const std::filesystem::path path =
-      isFile ? std::filesystem::path(sourcePath).parent_path() / value : folder / (value + ".yaml");
+  if (!isPresetName(value)) {
+    return Error{"material.preset must be the name of a preset in " + folder.string() +
+                 " (letters, digits, _ and -; not a path), got '" + printableText(value, 100) +
+                 "' (known: " + commaList(presetNames(folder)) + ")"};
+  }
+  const std::filesystem::path path = folder / (value + ".yaml");
   std::error_code missing;
-  if (!std::filesystem::exists(path, missing)) {
-    std::vector<std::string> known;
-    std::error_code ec;
-    for (const auto& f : std::filesystem::directory_iterator(folder, ec)) {
-      if (f.path().extension() == ".yaml") known.push_back(f.path().stem().string());
-    }
-    std::sort(known.begin(), known.end());
-    return Error{"material.preset: no preset '" + value + "' (" + path.string() + "; known: " + commaList(known) + ")"};
+  if (!std::filesystem::is_regular_file(path, missing)) {
+    return Error{"material.preset: no preset '" + value + "' (" + path.string() + "; known: " +
+                 commaList(presetNames(folder)) + ")"};
   }
   // Bounded like the scene file itself: a preset naming /dev/zero or a binary is one error.
   Expected<std::string> text = readTextFile(path.string(), kMaxSceneFileBytes, "material preset file");
@@ -564,7 +581,13 @@ Expected<Scene> readScene(const YAML::Node& doc, const std::string& sourcePath) 
   MapReader root(doc, "",
                  {"name", "mesh", "material", "bending", "damping", "air", "gravity", "integrator",
                   "pins", "forces", "initial", "duration", "obstacles", "contact", "frames"});
-  if (!doc.IsMap()) return Error{"scene must be a map of keys, got " + describe(doc)};
+  // Not describe(doc): a file that is no scene at all (a password file read as one long YAML
+  // text) is not echoed into a log.
+  if (!doc.IsMap()) {
+    return Error{"scene must be a map of keys (mesh, material, ...), got " +
+                 (doc.IsScalar() ? "a text of " + std::to_string(doc.Scalar().size()) + " characters: not a scene"
+                                 : describe(doc))};
+  }
   FEM_CLOTH_CHECK(root.check());
   FEM_CLOTH_CHECK(root.text("name", s.name));
   FEM_CLOTH_CHECK(readMesh(root.child("mesh"), s));
@@ -595,7 +618,7 @@ Expected<Scene> parseScene(const YAML::Node& doc, const std::string& sourcePath)
   // The readers check the kind of every node before converting it; should yaml-cpp still throw
   // on a document shaped in a way they did not foresee, that is bad input too, not a crash.
   try {
-    Expected<YAML::Node> expanded = withMaterialPreset(doc, sourcePath);
+    Expected<YAML::Node> expanded = withMaterialPreset(doc);
     if (!expanded) return Error{expanded.error()};
     return readScene(*expanded, sourcePath);
   } catch (const YAML::Exception& e) {

@@ -39,14 +39,6 @@ std::string fixedText(double v, int digits) {
   return out.str();
 }
 
-// A frame name as a part of a topic name: characters a ROS name cannot hold become '_'.
-std::string topicSafe(const std::string& frame) {
-  std::string out;
-  for (char c : frame) out += std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/' ? c : '_';
-  if (out.empty() || std::isdigit(static_cast<unsigned char>(out[0]))) out = "frame_" + out;
-  return out;
-}
-
 }  // namespace
 
 const std::vector<std::string>& ClothNode::parameterNames() {
@@ -113,8 +105,8 @@ bool ClothNode::readParameters(std::string* error) {
     startTime_ = *start;
     hasStartTime_ = true;
   }
-  if (frame_.empty()) {
-    *error = "parameter ~frame_id must not be empty";
+  if (Status s = frameNameProblem(frame_, "~frame_id"); !s) {
+    *error = s.error();
     return false;
   }
   if (mode == "real_time") {
@@ -125,8 +117,11 @@ bool ClothNode::readParameters(std::string* error) {
     *error = "parameter ~time_mode must be real_time or fast, got '" + mode + "'";
     return false;
   }
-  if (!(realTimeFactor_ > 0.0) || !std::isfinite(realTimeFactor_)) {
-    *error = "parameter ~real_time_factor must be positive";
+  // A factor beyond these is no real time: 1e308 would make every step due at once (fast mode
+  // is that, and says so), 1e-300 would never step.
+  if (!(realTimeFactor_ >= 0.001 && realTimeFactor_ <= 1000.0)) {
+    *error = "parameter ~real_time_factor must be between 0.001 and 1000 (time_mode fast runs as fast as it can), got " +
+             numberText(realTimeFactor_);
     return false;
   }
   if (!(publishRate_ >= 0.0) || !(markerRate_ >= 0.0)) {
@@ -338,7 +333,7 @@ void ClothNode::advertise() {
   ros::NodeHandle blocking(private_);
   blocking.setCallbackQueue(&blockingQueue_);
   resetSrv_ = blocking.advertiseService("reset", &ClothNode::onReset, this);
-  live_ = std::make_unique<LiveServices>(private_, blocking, *inbox_, driver_->document());
+  live_ = std::make_unique<LiveServices>(private_, *inbox_, driver_->document());
   advanceSrv_ = blocking.advertiseService("advance", &ClothNode::onAdvance, this);
 }
 
@@ -383,9 +378,13 @@ bool ClothNode::onAdvance(Advance::Request& req, Advance::Response& res) {
 // --- The run loop ---------------------------------------------------------------------------------
 
 void ClothNode::takeCommands() {
-  for (const Command& c : inbox_->take()) {
-    const Status s = driver_->submit(c);
+  std::vector<std::uint64_t> tickets;
+  const std::vector<Command> arrived = inbox_->take(&tickets);
+  for (std::size_t k = 0; k < arrived.size(); ++k) {
+    const Command& c = arrived[k];
+    const Status s = driver_->submit(c, tickets[k]);
     if (!s) reject(topicOf(c), s.error());
+    if (!s && tickets[k] != 0) live_->answer(tickets[k], s, c, driver_->stepIndex(), driver_->simulator().time());
   }
   for (CommandTopic topic : commandTopics()) {
     const std::uint64_t refused = inbox_->tally(topic).refused;
@@ -445,6 +444,7 @@ void ClothNode::restartRealTimeFactorWindow() {
 }
 
 void ClothNode::doReset() {
+  dropServiceCommands("~reset came first");
   driver_->reset();
   clock_ = ros::Time();  // fast mode: /clock starts over with the run
   restartRealTimeFactorWindow();  // a window across the reset measured a negative factor
@@ -538,17 +538,12 @@ bool ClothNode::transformsReady() {
 void ClothNode::stepOnce() {
   const ros::WallTime begin = ros::WallTime::now();
   if (testStepDelay_ > 0.0) ros::WallDuration(testStepDelay_).sleep();  // a slow step, for tests
+  appliedAtStep_ = driver_->stepIndex();  // the state the due commands take effect in
+  appliedAtTime_ = driver_->simulator().time();
   lastReport_ = driver_->step();
   const StepReport& report = lastReport_;
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
-  // The commands as they took effect, stamped with their step: what a recording replays.
-  bool obstaclesChanged = false;
-  for (const Command& c : driver_->takeApplied()) {
-    std::visit([this, &c](const auto& command) { appliedPubs_[c.index()].publish(command); }, c);
-    live_->applied(c, driver_->document());
-    obstaclesChanged = obstaclesChanged || std::holds_alternative<ObstacleCommand>(c);
-  }
-  if (obstaclesChanged) refreshObstacleTopics();
+  publishApplied();
   for (const std::string& w : driver_->takeWarnings()) {
     lastProblem_ = w;
     diagnosticsSoon_ = true;
@@ -582,6 +577,47 @@ void ClothNode::stepOnce() {
   }
   publishClock();
   publishOutputs(report, stepWallTime_, false);
+}
+
+void ClothNode::publishApplied() {
+  // The commands as they took effect, stamped with their step: what a recording replays.
+  bool obstaclesChanged = false;
+  for (const Command& c : driver_->takeApplied()) {
+    std::visit([this, &c](const auto& command) { appliedPubs_[c.index()].publish(command); }, c);
+    live_->applied(c, driver_->document());
+    obstaclesChanged = obstaclesChanged || std::holds_alternative<ObstacleCommand>(c);
+  }
+  if (obstaclesChanged) refreshObstacleTopics();
+  // The services' callers, once the document they check the next request against is current.
+  for (const SimulationDriver::Outcome& o : driver_->takeOutcomes()) {
+    live_->answer(o.ticket, o.status, o.command, appliedAtStep_, appliedAtTime_);
+  }
+}
+
+void ClothNode::applyWhilePaused() {
+  // A paused node applies the services' requests at once: they would take effect before the next
+  // step anyway, and their callers do not wait for a ~resume. Commands from the topics wait for
+  // the step, as they always did.
+  if (!driver_->ticketedDueNow()) return;
+  // As before a ~step: a recording shows the segment the commands are stamped in, with the state
+  // they take effect in.
+  announceSegment();
+  appliedAtStep_ = driver_->stepIndex();
+  appliedAtTime_ = driver_->simulator().time();
+  driver_->applyTicketedNow();
+  publishApplied();
+  for (const std::string& w : driver_->takeWarnings()) {
+    lastProblem_ = w;
+    diagnosticsSoon_ = true;
+    warn(WarningThrottle::kindOf(w), w, "similar warnings");
+  }
+}
+
+void ClothNode::dropServiceCommands(const std::string& why) {
+  const Status dropped = Error{why + ": dropped before it took effect, nothing changed"};
+  for (std::uint64_t ticket : driver_->withdrawTicketed()) {
+    live_->answer(ticket, dropped, Command(), driver_->stepIndex(), driver_->simulator().time());
+  }
 }
 
 void ClothNode::publishClock() {
@@ -652,6 +688,7 @@ bool ClothNode::lagAllowsStep() {
 
 void ClothNode::pauseItself(SelfPause cause, const std::string& why) {
   control_->pause();
+  dropServiceCommands("the node paused itself (" + why + ")");
   selfPause_ = cause;
   selfPauseWhy_ = why;
   lastProblem_ = why;
@@ -746,7 +783,7 @@ void ClothNode::publishPinReactions() {
     auto it = graspWrenchPubs_.find(tfFrameName(frame));
     if (it == graspWrenchPubs_.end()) {
       it = graspWrenchPubs_.emplace(tfFrameName(frame), private_.advertise<geometry_msgs::WrenchStamped>(
-                                                            "grasp/" + topicSafe(tfFrameName(frame)) + "/wrench", 10)).first;
+                                                            graspWrenchTopic(frame), 10)).first;
     }
     graspWanted = graspWanted || wanted(it->second);
   }
@@ -911,6 +948,7 @@ void ClothNode::turn() {
     // longer than tf_timeout). Not once a step is wanted: the step's times must not move while it
     // waits for their transforms.
     holdOnRosTime();
+    applyWhilePaused();
     publishDiagnostics(false);
     control_->wait(0.05);
     return;

@@ -22,27 +22,62 @@ std::array<CommandTopic, kCommandTopics> commandTopics() {
   return out;
 }
 
-Status CommandQueue::push(double time, Command command) {
-  if (pending_.size() >= capacity_) {
-    return Error{std::to_string(pending_.size()) +
+Status CommandQueue::push(double time, Command command, double now, std::uint64_t ticket) {
+  const std::size_t topic = static_cast<std::size_t>(topicOf(command));
+  // Those for the next step leave at it: only commands for later can pile up.
+  if (time > now && perTopic_[topic] >= capacity_) {
+    return Error{std::to_string(perTopic_[topic]) + " ~" + topicName(topicOf(command)) +
                  " commands are already waiting for their time (max_pending_commands = " +
                  std::to_string(capacity_) + "): refused"};
   }
-  ++perTopic_[static_cast<std::size_t>(topicOf(command))];
+  ++perTopic_[topic];
   auto it = std::upper_bound(pending_.begin(), pending_.end(), time,
                              [](double t, const Pending& p) { return t < p.time; });
-  pending_.insert(it, Pending{time, std::move(command)});
+  pending_.insert(it, Pending{time, std::move(command), ticket});
   return Status::success();
 }
 
-std::vector<Command> CommandQueue::takeDue(double time) {
+std::vector<Command> CommandQueue::takeDue(double time, std::vector<std::uint64_t>* tickets, bool ticketedOnly) {
   std::vector<Command> out;
+  std::deque<Pending> kept;  // due, but without a ticket when only those are taken
   while (!pending_.empty() && pending_.front().time <= time) {
-    --perTopic_[static_cast<std::size_t>(topicOf(pending_.front().command))];
-    out.push_back(std::move(pending_.front().command));
+    Pending& p = pending_.front();
+    if (ticketedOnly && p.ticket == 0) {
+      kept.push_back(std::move(p));
+    } else {
+      --perTopic_[static_cast<std::size_t>(topicOf(p.command))];
+      out.push_back(std::move(p.command));
+      if (tickets != nullptr) tickets->push_back(p.ticket);
+    }
     pending_.pop_front();
   }
+  pending_.insert(pending_.begin(), std::make_move_iterator(kept.begin()), std::make_move_iterator(kept.end()));
   return out;
+}
+
+bool CommandQueue::ticketedDue(double time) const {
+  for (const Pending& p : pending_) {
+    if (p.time > time) return false;
+    if (p.ticket != 0) return true;
+  }
+  return false;
+}
+
+std::vector<std::uint64_t> CommandQueue::withdrawTicketed(std::array<std::uint64_t, kCommandTopics>& dropped) {
+  std::vector<std::uint64_t> tickets;
+  std::deque<Pending> kept;
+  for (Pending& p : pending_) {
+    if (p.ticket == 0) {
+      kept.push_back(std::move(p));
+      continue;
+    }
+    const std::size_t topic = static_cast<std::size_t>(topicOf(p.command));
+    --perTopic_[topic];
+    ++dropped[topic];
+    tickets.push_back(p.ticket);
+  }
+  pending_.swap(kept);
+  return tickets;
 }
 
 std::vector<const Command*> CommandQueue::due(double time) const {
@@ -66,7 +101,7 @@ std::array<std::uint64_t, kCommandTopics> CommandQueue::clear() {
   return dropped;
 }
 
-bool CommandInbox::push(Command command) {
+bool CommandInbox::push(Command command, std::uint64_t ticket) {
   const std::size_t topic = static_cast<std::size_t>(topicOf(command));
   std::lock_guard<std::mutex> lock(mutex_);
   ++tally_[topic].received;
@@ -76,6 +111,7 @@ bool CommandInbox::push(Command command) {
   }
   ++tally_[topic].waiting;
   waiting_.push_back(std::move(command));
+  tickets_.push_back(ticket);
   return true;
 }
 
@@ -86,10 +122,12 @@ void CommandInbox::refuse(CommandTopic topic) {
   ++t.invalid;
 }
 
-std::vector<Command> CommandInbox::take() {
+std::vector<Command> CommandInbox::take(std::vector<std::uint64_t>* tickets) {
   std::vector<Command> out;
   std::lock_guard<std::mutex> lock(mutex_);
   out.swap(waiting_);
+  if (tickets != nullptr) tickets->insert(tickets->end(), tickets_.begin(), tickets_.end());
+  tickets_.clear();
   for (Tally& t : tally_) t.waiting = 0;
   return out;
 }

@@ -9,19 +9,37 @@
 
 namespace fem_cloth {
 
-LiveServices::LiveServices(ros::NodeHandle quick, ros::NodeHandle blocking, CommandInbox& inbox,
-                           const YAML::Node& document)
+namespace {
+// Calls that may wait at once for the run loop; more wait in the queue for a free thread.
+constexpr std::uint32_t kServiceThreads = 4;
+}  // namespace
+
+LiveServices::LiveServices(const ros::NodeHandle& node, CommandInbox& inbox, const YAML::Node& document)
     : inbox_(inbox), document_(YAML::Clone(document)) {
-  services_.push_back(quick.advertiseService("set", &LiveServices::onSet, this));
+  ros::NodeHandle nh(node);
+  nh.setCallbackQueue(&queue_);
+  services_.push_back(nh.advertiseService("set", &LiveServices::onSet, this));
   const std::vector<std::pair<const char*, std::uint8_t>> obstacles = {
       {"add_obstacle", ObstacleCommand::ADD}, {"remove_obstacle", ObstacleCommand::REMOVE}, {"move_obstacle", ObstacleCommand::MOVE}};
   for (const auto& [name, action] : obstacles) {
     const std::uint8_t a = action;
-    services_.push_back(quick.advertiseService<ObstacleChange::Request, ObstacleChange::Response>(
+    services_.push_back(nh.advertiseService<ObstacleChange::Request, ObstacleChange::Response>(
         name, boost::function<bool(ObstacleChange::Request&, ObstacleChange::Response&)>(
                   [this, a](ObstacleChange::Request& req, ObstacleChange::Response& res) { return onObstacle(a, req, res); })));
   }
-  services_.push_back(blocking.advertiseService("grasp_nearest", &LiveServices::onGraspNearest, this));
+  services_.push_back(nh.advertiseService("grasp_nearest", &LiveServices::onGraspNearest, this));
+  spinner_ = std::make_unique<ros::AsyncSpinner>(kServiceThreads, &queue_);
+  spinner_->start();
+}
+
+LiveServices::~LiveServices() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stopping_ = true;  // the calls waiting answer, so that the spinner's threads end
+  }
+  answered_.notify_all();
+  for (ros::ServiceServer& s : services_) s.shutdown();
+  spinner_->stop();
 }
 
 YAML::Node LiveServices::document() const {
@@ -29,11 +47,27 @@ YAML::Node LiveServices::document() const {
   return YAML::Clone(document_);
 }
 
-bool LiveServices::queue(Command command, std::string* message) {
-  if (inbox_.push(std::move(command))) return true;
-  *message = "refused: " + std::to_string(inbox_.capacity()) +
-             " commands are already waiting to be checked (max_pending_commands)";
-  return false;
+LiveServices::Outcome LiveServices::submitAndWait(Command command) {
+  std::uint64_t ticket = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ticket = nextTicket_++;
+  }
+  if (!inbox_.push(std::move(command), ticket)) {
+    return Outcome{Error{"refused: " + std::to_string(inbox_.capacity()) +
+                         " commands are already waiting to be checked (max_pending_commands)"},
+                   {}, ""};
+  }
+  // The run loop answers every ticket it takes: applied, refused, or dropped (a self-pause, a
+  // ~reset). Only a node shutting down leaves a call without one.
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (outcomes_.count(ticket) == 0) {
+    if (stopping_ || !ros::ok()) return Outcome{Error{"the node is shutting down: not applied"}, {}, ""};
+    answered_.wait_for(lock, std::chrono::milliseconds(100));
+  }
+  Outcome out = std::move(outcomes_[ticket]);
+  outcomes_.erase(ticket);
+  return out;
 }
 
 bool LiveServices::onSet(Set::Request& req, Set::Response& res) {
@@ -46,8 +80,10 @@ bool LiveServices::onSet(Set::Request& req, Set::Response& res) {
   }
   SetCommand c;
   c.pairs = req.pairs;
-  res.success = queue(c, &res.message);
-  if (res.success) res.message = "applies before the next step (published on ~applied_set)";
+  const Outcome out = submitAndWait(c);
+  res.success = out.status.ok();
+  res.message = out.status ? "applied " + out.when + " (published on ~applied_set)"
+                           : "~set refused, nothing changed: " + out.status.error();
   return true;
 }
 
@@ -63,8 +99,10 @@ bool LiveServices::onObstacle(std::uint8_t action, ObstacleChange::Request& req,
     res.message = "refused, nothing changed: " + s.error();
     return true;
   }
-  res.success = queue(c, &res.message);
-  if (res.success) res.message = "applies before the next step (published on ~applied_obstacle)";
+  const Outcome out = submitAndWait(c);
+  res.success = out.status.ok();
+  res.message = out.status ? "applied " + out.when + " (published on ~applied_obstacle)"
+                           : "refused, nothing changed: " + out.status.error();
   return true;
 }
 
@@ -79,39 +117,30 @@ bool LiveServices::onGraspNearest(GraspNearest::Request& req, GraspNearest::Resp
     res.message = s.error();
     return true;
   }
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    c.header.seq = nextGrasp_++;
-  }
-  const std::uint32_t id = c.header.seq;
-  if (!queue(c, &res.message)) {
-    res.success = false;
-    return true;
-  }
-  // Answered with the vertices once the run loop has applied it; a paused node applies it at
-  // its next step, after this answer.
-  std::unique_lock<std::mutex> lock(mutex_);
-  const bool done = graspDone_.wait_for(lock, std::chrono::seconds(1), [&] { return grasped_.count(id) > 0; });
-  res.success = true;
-  if (done) {
-    res.vertices = grasped_[id];
-    grasped_.erase(id);
-    res.message = "pinned " + std::to_string(res.vertices.size()) + " vertices";
-  } else {
-    res.message = "queued: applies before the next step (the vertices will be on ~applied_grasp)";
-  }
+  const Outcome out = submitAndWait(c);
+  res.success = out.status.ok();
+  res.vertices = out.vertices;
+  res.message = out.status ? "pinned " + std::to_string(out.vertices.size()) + " vertices " + out.when +
+                                 " (published on ~applied_grasp)"
+                           : "nothing pinned: " + out.status.error();
   return true;
 }
 
 void LiveServices::applied(const Command& command, const YAML::Node& document) {
+  if (!std::holds_alternative<SetCommand>(command) && !std::holds_alternative<ObstacleCommand>(command)) return;
   std::lock_guard<std::mutex> lock(mutex_);
-  if (const GraspCommand* g = std::get_if<GraspCommand>(&command)) {
-    grasped_[g->header.seq] = g->vertices;
-    if (grasped_.size() > 1000) grasped_.erase(grasped_.begin());  // answers nobody waited for
-    graspDone_.notify_all();
-  } else if (std::holds_alternative<SetCommand>(command) || std::holds_alternative<ObstacleCommand>(command)) {
-    document_ = YAML::Clone(document);
+  document_ = YAML::Clone(document);
+}
+
+void LiveServices::answer(std::uint64_t ticket, const Status& outcome, const Command& command, std::uint64_t step,
+                          double time) {
+  Outcome out{outcome, {}, "at step " + std::to_string(step) + ", t = " + numberText(time) + " s"};
+  if (const GraspCommand* g = std::get_if<GraspCommand>(&command); g != nullptr && outcome) out.vertices = g->vertices;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    outcomes_[ticket] = std::move(out);
   }
+  answered_.notify_all();
 }
 
 }  // namespace fem_cloth

@@ -9,6 +9,7 @@
 
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/ros/scene_params.h"
+#include "fem_cloth/ros/transform_wait.h"
 
 namespace fem_cloth {
 
@@ -133,11 +134,9 @@ Expected<CameraSettings> readCameraSettings(const XmlRpc::XmlRpcValue& camera) {
   Value copy = camera;
   CameraSettings c;
   if (copy.hasMember("frame_id")) {
-    if (copy["frame_id"].getType() != Value::TypeString ||
-        static_cast<std::string>(copy["frame_id"]).empty()) {
-      return Error{"parameter ~camera/frame_id must be a frame name"};
-    }
+    if (copy["frame_id"].getType() != Value::TypeString) return Error{"parameter ~camera/frame_id must be a frame name"};
     c.frame = static_cast<std::string>(copy["frame_id"]);
+    if (Status s = frameNameProblem(c.frame, "~camera/frame_id"); !s) return Error{s.error()};
     if (c.frame[0] == '/') c.frame.erase(0, 1);  // tf2 names frames without it
   }
   if (copy.hasMember("pose")) {
@@ -272,6 +271,13 @@ Expected<std::unique_ptr<PerceptionOutputs>> PerceptionOutputs::create(ros::Node
   Expected<std::vector<ClothFrame>> frames =
       resolveClothFrames(scene, driver.simulator().model().mesh());
   if (!frames) return Error{"scene " + frames.error()};
+  // The camera's pose goes out as the transform simulation frame -> camera frame: the same frame
+  // at both ends would be a transform of a frame to itself, which tf refuses.
+  if (settings.camera && tfFrameName(settings.camera->frame) == tfFrameName(settings.frame)) {
+    return Error{"parameter ~camera/frame_id is '" + settings.camera->frame +
+                 "', the simulation frame (~frame_id): the camera needs a frame of its own, placed by ~camera/pose "
+                 "or by tf"};
+  }
   return std::unique_ptr<PerceptionOutputs>(
       new PerceptionOutputs(privateNode, driver, tf, std::move(settings), std::move(frames).value()));
 }

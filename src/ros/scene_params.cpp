@@ -1,11 +1,37 @@
 #include "fem_cloth/ros/scene_params.h"
 
 #include <algorithm>
+#include <cctype>
 #include <sstream>
 
 #include "fem_cloth/io/scene_yaml.h"
 
 namespace fem_cloth {
+
+bool readParam(const ros::NodeHandle& nh, const std::string& name, int& value, std::string* error,
+               const char* expected) {
+  if (!nh.hasParam(name)) return true;
+  XmlRpc::XmlRpcValue v;
+  if (!nh.getParam(name, v) || v.getType() != XmlRpc::XmlRpcValue::TypeInt) {
+    const YAML::Node got = toYaml(v);
+    *error = "parameter ~" + name + " must be " + expected + ", got " +
+             (got.IsScalar() ? "'" + printableText(got.Scalar(), 100) + "'" : std::string("a list or map"));
+    return false;
+  }
+  value = static_cast<int>(v);
+  return true;
+}
+
+Status frameNameProblem(const std::string& frame, const std::string& parameter) {
+  if (frame.empty()) return Error{"parameter " + parameter + " must be a frame name, got an empty one"};
+  for (char c : frame) {
+    if (std::isspace(static_cast<unsigned char>(c)) || std::iscntrl(static_cast<unsigned char>(c))) {
+      return Error{"parameter " + parameter + " must be a frame name without blanks or control characters, got '" +
+                   printableText(frame, 100) + "'"};
+    }
+  }
+  return Status::success();
+}
 
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value) {
   XmlRpc::XmlRpcValue v = value;  // the accessors are not const

@@ -3,6 +3,7 @@
 #include <ros/names.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -161,6 +162,28 @@ Status SimulationDriver::checkFrame(const std::string& frame, const ros::Time& s
   return Status::success();
 }
 
+std::string graspWrenchTopic(const std::string& frame) {
+  std::string out;
+  for (char c : tfFrameName(frame)) out += std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '/' ? c : '_';
+  if (out.empty() || std::isdigit(static_cast<unsigned char>(out[0]))) out = "frame_" + out;
+  return "grasp/" + out + "/wrench";
+}
+
+Status SimulationDriver::checkWrenchTopic(const std::string& frame) const {
+  if (frames_.isSimulationFrame(frame)) return Status::success();
+  const std::string mine = tfFrameName(frame), topic = graspWrenchTopic(frame);
+  std::vector<std::string> others = pinSet_.frames();
+  others.push_back(settings_.frame);
+  for (const std::string& other : others) {
+    if (tfFrameName(other) == mine || graspWrenchTopic(other) != topic) continue;
+    return Error{"frame '" + printableText(mine, 100) + "' would share the wrench topic ~" + topic + " with frame '" +
+                 printableText(tfFrameName(other), 100) + "'" +
+                 (frames_.isSimulationFrame(other) ? " (the simulation frame)" : ", which pins follow") +
+                 ": refused (release those pins first, or use a frame name that differs in letters, digits or '_')"};
+  }
+  return Status::success();
+}
+
 template <>
 Status SimulationDriver::check(const PinCommand& c) const {
   const Index n = simulator().model().numVertices();
@@ -190,6 +213,7 @@ Status SimulationDriver::check(const PinCommand& c) const {
   }
   if (c.action != PinCommand::RELEASE) {
     if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
+    if (Status s = checkWrenchTopic(c.header.frame_id); !s) return s;
   }
   return Status::success();
 }
@@ -273,17 +297,18 @@ Status SimulationDriver::check(const ObstacleCommand& c) const {
 template <>
 Status SimulationDriver::check(const GraspCommand& c) const {
   if (Status s = graspShapeProblem(c); !s) return s;
-  return checkFrame(c.header.frame_id, c.header.stamp);
+  if (Status s = checkFrame(c.header.frame_id, c.header.stamp); !s) return s;
+  return checkWrenchTopic(c.header.frame_id);
 }
 
-Status SimulationDriver::submit(const Command& c) {
+Status SimulationDriver::submit(const Command& c, std::uint64_t ticket) {
   CommandCounts& counts = counts_[static_cast<std::size_t>(topicOf(c))];
   ++counts.received;
   // The stamp first: tf would throw on a time no ROS duration relates to its transforms.
   const Expected<double> time = commandTime(headerOf(c).stamp);
   Status s = time ? std::visit([this](const auto& command) { return check(command); }, c)
                   : Status(Error{time.error()});
-  if (s) s = pending_.push(*time, c);
+  if (s) s = pending_.push(*time, c, simulator().time(), ticket);
   if (!s) ++counts.rejected;
   return s;
 }
@@ -298,6 +323,7 @@ Status SimulationDriver::apply(PinCommand& c) {
   }
   const FramePose T = frames_.pose(c.header.frame_id, now());
   if (!T.pose) return Error{T.why};
+  if (Status s = checkWrenchTopic(c.header.frame_id); !s) return s;  // another frame took it meanwhile
   std::vector<Eigen::Vector3d> targets;
   if (c.action == PinCommand::PIN_AT_TARGETS) {
     for (const geometry_msgs::Point& p : c.targets) targets.emplace_back(p.x, p.y, p.z);
@@ -356,6 +382,7 @@ Status SimulationDriver::apply(GraspCommand& c) {
   Simulator& sim = simulator();
   const FramePose T = frames_.pose(c.header.frame_id, now());
   if (!T.pose) return Error{T.why};
+  if (Status s = checkWrenchTopic(c.header.frame_id); !s) return s;
   Eigen::Vector3d centre = *T.pose * Eigen::Vector3d(c.point.x, c.point.y, c.point.z);
   if (sim.dim() == 2) centre.z() = 0.0;
   const Mesh& mesh = sim.model().mesh();
@@ -374,21 +401,45 @@ Status SimulationDriver::apply(GraspCommand& c) {
   return Status::success();
 }
 
-void SimulationDriver::applyDue(double t) {
+void SimulationDriver::applyDue(double t, bool ticketedOnly) {
   const double dt = simulator().settings().dt;
-  for (Command& c : pending_.takeDue(t + 1e-9 * dt)) {
+  std::vector<std::uint64_t> tickets;
+  std::vector<Command> due = pending_.takeDue(t + 1e-9 * dt, &tickets, ticketedOnly);
+  for (std::size_t k = 0; k < due.size(); ++k) {
+    Command& c = due[k];
     CommandCounts& counts = counts_[static_cast<std::size_t>(topicOf(c))];
     const Status s = std::visit([this](auto& command) { return apply(command); }, c);
     if (!s) {
       ++counts.rejected;
       warnings_.push_back(std::string("~") + topicName(topicOf(c)) +
                           " command could not be applied at t = " + numberText(t) + " s: " + s.error());
+      if (tickets[k] != 0) outcomes_.push_back(Outcome{tickets[k], s, c});
       continue;
     }
     ++counts.applied;
     std::visit([this, t](auto& command) { command.header.stamp = stampOf(t); }, c);
+    if (tickets[k] != 0) outcomes_.push_back(Outcome{tickets[k], Status::success(), c});
     applied_.push_back(std::move(c));
   }
+}
+
+void SimulationDriver::applyTicketedNow() { applyDue(simulator().time(), true); }
+
+bool SimulationDriver::ticketedDueNow() const {
+  return pending_.ticketedDue(simulator().time() + 1e-9 * simulator().settings().dt);
+}
+
+std::vector<SimulationDriver::Outcome> SimulationDriver::takeOutcomes() {
+  std::vector<Outcome> out;
+  out.swap(outcomes_);
+  return out;
+}
+
+std::vector<std::uint64_t> SimulationDriver::withdrawTicketed() {
+  std::array<std::uint64_t, kCommandTopics> dropped{};
+  const std::vector<std::uint64_t> tickets = pending_.withdrawTicketed(dropped);
+  for (std::size_t k = 0; k < kCommandTopics; ++k) counts_[k].discarded += dropped[k];
+  return tickets;
 }
 
 StepReport SimulationDriver::step() {

@@ -84,16 +84,45 @@ TEST(MaterialPresets, ErrorsNameThePresetAndTheKey) {
   const Expected<Scene> notAName = sceneWith("{preset: [denim]}");
   ASSERT_FALSE(notAName.ok());
   EXPECT_NE(notAName.error().find("material.preset"), std::string::npos) << notAName.error();
-  // A preset file relative to the scene, with a key it may not set.
+  // A folder of one's own ($FEM_CLOTH_MATERIALS_DIR), with a preset holding a key it may not set.
   const test::TempDir dir("fem_cloth_presets");
-  std::ofstream(dir.path("odd.yaml")) << "material:\n  youngs_modulus: 1.0e6\n  colour: blue\n";
-  const Expected<Scene> bad = sceneWith("{preset: odd.yaml}", "{}", dir.path("scene.yaml"));
+  dir.write("odd.yaml", "material:\n  youngs_modulus: 1.0e6\n  colour: blue\n");
+  dir.write("fine.yaml", "material:\n  youngs_modulus: 1.0e6\n  poisson_ratio: 0.2\n");
+  ::setenv("FEM_CLOTH_MATERIALS_DIR", dir.path("").c_str(), 1);
+  const Expected<Scene> bad = sceneWith("{preset: odd}");
+  const Expected<Scene> fine = sceneWith("{preset: fine}");
+  ::unsetenv("FEM_CLOTH_MATERIALS_DIR");
   ASSERT_FALSE(bad.ok());
   EXPECT_NE(bad.error().find("colour"), std::string::npos) << bad.error();
-  std::ofstream(dir.path("fine.yaml")) << "material:\n  youngs_modulus: 1.0e6\n  poisson_ratio: 0.2\n";
-  const Expected<Scene> fine = sceneWith("{preset: fine.yaml}", "{}", dir.path("scene.yaml"));
   ASSERT_TRUE(fine.ok()) << fine.error();
   EXPECT_EQ(*fine->youngsModulus, 1.0e6);
+}
+
+TEST(MaterialPresets, APresetIsANameNeverAPath) {
+  // A file outside the presets folder whose bytes no error may show: a preset naming it (from a
+  // scene, a --set, a batch spec or a bag's scene, all read by parseScene) is refused as a name.
+  const test::TempDir dir("fem_cloth_preset_paths");
+  const std::string secret = "secretuser:x:1000:1000:secret:/home/secret:/bin/sh\n";
+  dir.write("passwd", secret);
+  dir.write("passwd.yaml", secret);
+  const std::string scene = dir.path("scene.yaml");
+  const std::filesystem::path up = std::filesystem::relative(dir.path("passwd"), std::filesystem::current_path());
+  for (const std::string& value :
+       {std::string("../../../../etc/passwd"), dir.path("passwd"), dir.path("passwd.yaml"), up.string(),
+        std::string("passwd.yaml"), std::string("./passwd"), std::string(".."), std::string("denim.yaml"),
+        std::string("de/nim"), std::string("")}) {
+    const Expected<Scene> s = sceneWith("{preset: '" + value + "'}", "{}", scene);
+    ASSERT_FALSE(s.ok()) << value;
+    EXPECT_NE(s.error().find("material.preset must be the name of a preset"), std::string::npos) << s.error();
+    EXPECT_NE(s.error().find("'" + value + "'"), std::string::npos) << s.error();
+    EXPECT_NE(s.error().find("denim"), std::string::npos) << s.error();  // the known names
+    EXPECT_EQ(s.error().find("secretuser"), std::string::npos) << s.error();
+  }
+  // The same file named as the scene itself: one long YAML text, refused without its bytes.
+  const Expected<Scene> asScene = loadScene(dir.path("passwd"));
+  ASSERT_FALSE(asScene.ok());
+  EXPECT_NE(asScene.error().find("not a scene"), std::string::npos) << asScene.error();
+  EXPECT_EQ(asScene.error().find("secretuser"), std::string::npos) << asScene.error();
 }
 
 TEST(MaterialPresets, AFileWithoutMaterialKeysGetsTheUsualMessages) {

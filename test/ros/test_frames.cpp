@@ -312,14 +312,28 @@ TEST(Commands, AStampNoDurationRelatesToTheEpochIsRefusedNamingTheField) {
   ASSERT_TRUE(driver.step().ok);
 }
 
-TEST(Commands, PendingCommandsAreCappedCountedAndDiscardedByReset) {
+namespace {
+
+// A driver that lets `cap` commands of a topic wait for later, and a zero force on vertex 3.
+SimulationDriver cappedDriver(std::size_t cap) {
   DriverSettings settings = defaultSettings();
-  settings.maxPendingCommands = 5;
-  SimulationDriver driver = makeDriver(nullptr, settings);
+  settings.maxPendingCommands = cap;
+  return makeDriver(nullptr, settings);
+}
+
+ForceCommand zeroForce() {
   ForceCommand c;
   c.header.frame_id = "world";
   c.vertices = {3};
   c.forces.resize(1);
+  return c;
+}
+
+}  // namespace
+
+TEST(Commands, PendingCommandsAreCappedCountedAndDiscardedByReset) {
+  SimulationDriver driver = cappedDriver(5);
+  ForceCommand c = zeroForce();
   for (int k = 1; k <= 6; ++k) {
     c.header.stamp = kEpoch + ros::Duration(100.0 + k);  // all in the future
     const Status s = driver.submit(c);
@@ -356,6 +370,111 @@ TEST(Commands, AStepWhoseEndIsNoRosTimeIsRefusedAndLeavesTheState) {
   EXPECT_NE(r.error.find("is not a ROS time"), std::string::npos) << r.error;
   EXPECT_EQ(driver.stepIndex(), 0u);
   EXPECT_EQ(driver.now(), settings.epoch);
+}
+
+// The cap counts a topic's commands for later: once the forces fill it, a force for the next
+// step and a pin for later still go in (issue 31: 500 waiting pins once refused every ~set).
+TEST(Commands, ThePendingCapIsPerTopicAndNeverRefusesTheNextStep) {
+  SimulationDriver driver = cappedDriver(2);
+  ForceCommand c = zeroForce();
+  for (int k = 1; k <= 3; ++k) {
+    c.header.stamp = kEpoch + ros::Duration(100.0 + k);
+    const Status s = driver.submit(c);
+    EXPECT_EQ(s.ok(), k <= 2) << k;
+    if (k == 3) {
+      EXPECT_NE(s.error().find("2 ~force commands"), std::string::npos) << s.error();
+    }
+  }
+  for (const ros::Time& next : {ros::Time(), kEpoch}) {  // a zero stamp, and the current time
+    c.header.stamp = next;
+    EXPECT_TRUE(driver.submit(c).ok());
+  }
+  PinCommand later = pinInPlace("world", {12});
+  later.header.stamp = kEpoch + ros::Duration(50.0);
+  EXPECT_TRUE(driver.submit(later).ok());
+  ASSERT_TRUE(driver.step().ok);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Force).applied, 2u);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Force).pending, 2u);
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Pin).pending, 1u);
+}
+
+// What the services wait for: a ticketed command's outcome, applied (a grasp with the vertices
+// it pinned) or refused with the reason; a paused node applies them without a step, and leaves
+// the commands from the topics (no ticket) for the step.
+TEST(Commands, ATicketedCommandsOutcomeIsTheOutcomeOfApplyingIt) {
+  SimulationDriver driver = makeDriver(nullptr);
+  EXPECT_FALSE(driver.ticketedDueNow());
+  GraspCommand near, far;
+  near.header.frame_id = far.header.frame_id = "world";
+  // Vertex 12 is grid vertex (2, 2) of the 0.4 m 5 x 5 grid: (0.2, 0.2, 0); its neighbours are
+  // 0.1 m away, outside 1 cm.
+  near.point.x = near.point.y = 0.2;
+  near.radius = far.radius = 0.01;
+  far.point = near.point;
+  far.point.z = 1.0;
+  ForceCommand push = zeroForce();
+  ASSERT_TRUE(driver.submit(push).ok());  // from a topic: no ticket
+  ASSERT_TRUE(driver.submit(near, 5).ok());
+  ASSERT_TRUE(driver.submit(far, 6).ok());  // no frame to check: refused when applied
+  EXPECT_TRUE(driver.ticketedDueNow());
+  driver.applyTicketedNow();
+  EXPECT_EQ(driver.stepIndex(), 0u);
+  EXPECT_FALSE(driver.ticketedDueNow());
+  EXPECT_EQ(driver.commandCounts(CommandTopic::Force).pending, 1u);
+  const std::vector<SimulationDriver::Outcome> outcomes = driver.takeOutcomes();
+  ASSERT_EQ(outcomes.size(), 2u);
+  EXPECT_EQ(outcomes[0].ticket, 5u);
+  ASSERT_TRUE(outcomes[0].status.ok()) << outcomes[0].status.error();
+  EXPECT_EQ(std::get<GraspCommand>(outcomes[0].command).vertices, (std::vector<std::uint32_t>{12}));
+  EXPECT_TRUE(driver.simulator().isPinned(12));
+  EXPECT_EQ(outcomes[1].ticket, 6u);
+  ASSERT_FALSE(outcomes[1].status.ok());
+  EXPECT_NE(outcomes[1].status.error().find("no vertex within 0.01 m"), std::string::npos) << outcomes[1].status.error();
+  EXPECT_EQ(driver.takeApplied<GraspCommand>().size(), 1u);
+  EXPECT_TRUE(driver.takeOutcomes().empty());
+  // Withdrawn before it was due (a node that paused itself, a ~reset): counted as discarded.
+  ASSERT_TRUE(driver.submit(near, 7).ok());
+  ASSERT_TRUE(driver.submit(far).ok());
+  EXPECT_EQ(driver.withdrawTicketed(), (std::vector<std::uint64_t>{7}));
+  const CommandCounts n = driver.commandCounts(CommandTopic::Grasp);
+  EXPECT_EQ(n.discarded, 1u);
+  EXPECT_EQ(n.pending, 1u);
+  EXPECT_EQ(n.received, n.rejected + n.applied + n.pending + n.discarded);
+}
+
+// Frames gripper-1 and gripper_1 would share the wrench topic ~grasp/gripper_1/wrench (a ROS name
+// holds no '-'): the second is refused, on submission and, if both came before either applied,
+// when applied.
+TEST(Commands, TwoFramesNeverShareAWrenchTopic) {
+  EXPECT_EQ(graspWrenchTopic("gripper-1"), "grasp/gripper_1/wrench");
+  EXPECT_EQ(graspWrenchTopic("/gripper_1"), "grasp/gripper_1/wrench");
+  tf2::BufferCore tf(ros::Duration(100.0));
+  for (const char* frame : {"gripper-1", "gripper_1"}) {
+    for (int k = 0; k <= 50; ++k) {
+      geometry_msgs::TransformStamped t = handAt(0.01 * k, 0.0, 0.0);
+      t.child_frame_id = frame;
+      tf.setTransform(t, "test");
+    }
+  }
+  SimulationDriver driver = makeDriver(&tf);
+  ASSERT_TRUE(driver.submit(pinInPlace("gripper-1", {12})).ok());
+  ASSERT_TRUE(driver.submit(pinInPlace("gripper_1", {6})).ok());  // neither applied yet
+  ASSERT_TRUE(driver.step().ok);
+  EXPECT_TRUE(driver.simulator().isPinned(12));
+  EXPECT_FALSE(driver.simulator().isPinned(6));
+  EXPECT_TRUE(anyContains(driver.takeWarnings(), "frame 'gripper_1' would share the wrench topic ~grasp/gripper_1/wrench "
+                                                 "with frame 'gripper-1'"));
+  const Status s = driver.submit(pinInPlace("gripper_1", {6}));
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().find("'gripper-1', which pins follow"), std::string::npos) << s.error();
+  EXPECT_TRUE(driver.submit(pinInPlace("gripper-1", {6})).ok());  // the same frame: its own topic
+  // Released, gripper-1 frees the topic.
+  PinCommand release = pinInPlace("world", {12, 6});
+  release.action = PinCommand::RELEASE;
+  ASSERT_TRUE(driver.step().ok);
+  ASSERT_TRUE(driver.submit(release).ok());
+  ASSERT_TRUE(driver.step().ok);
+  EXPECT_TRUE(driver.submit(pinInPlace("gripper_1", {6})).ok());
 }
 
 // An obstacle that follows a frame tf does not know yet says which frame and which time it

@@ -134,19 +134,51 @@ TEST(CommandQueue, TimeOrderWithEqualTimesInArrivalOrder) {
 }
 
 TEST(CommandQueue, RefusesBeyondItsCapacityNamingIt) {
+  // The capacity is per topic and counts commands for later (now = 0.5 s): three forces for
+  // later fill the force topic, not the pin topic, and never the next step.
   CommandQueue q(3);
-  for (std::uint32_t k = 0; k < 3; ++k) ASSERT_TRUE(q.push(1e6 + k, forceNumbered(k)).ok());
-  const Status full = q.push(1.0, forceNumbered(9));
+  for (std::uint32_t k = 0; k < 3; ++k) ASSERT_TRUE(q.push(1e6 + k, forceNumbered(k), 0.5).ok());
+  const Status full = q.push(1.0, forceNumbered(9), 0.5);
   ASSERT_FALSE(full.ok());
+  EXPECT_TRUE(contains(full.error(), "3 ~force commands")) << full.error();
   EXPECT_TRUE(contains(full.error(), "max_pending_commands = 3")) << full.error();
+  EXPECT_TRUE(q.push(0.5, forceNumbered(10), 0.5).ok());  // due at the next step
+  EXPECT_TRUE(q.push(-1.0, forceNumbered(11), 0.5).ok());  // a zero stamp: the next step
   PinCommand pin;
   pin.vertices = {1};
-  EXPECT_FALSE(q.push(0.0, pin).ok());
+  for (int k = 0; k < 3; ++k) EXPECT_TRUE(q.push(2.0 + k, pin, 0.5).ok()) << k;
+  EXPECT_FALSE(q.push(9.0, pin, 0.5).ok());
+  EXPECT_EQ(q.size(CommandTopic::Force), 5u);
+  EXPECT_EQ(q.size(CommandTopic::Pin), 3u);
   const std::array<std::uint64_t, kCommandTopics> dropped = q.clear();
-  EXPECT_EQ(dropped[static_cast<std::size_t>(CommandTopic::Force)], 3u);
-  EXPECT_EQ(dropped[static_cast<std::size_t>(CommandTopic::Pin)], 0u);
+  EXPECT_EQ(dropped[static_cast<std::size_t>(CommandTopic::Force)], 5u);
+  EXPECT_EQ(dropped[static_cast<std::size_t>(CommandTopic::Pin)], 3u);
   EXPECT_EQ(q.size(), 0u);
-  EXPECT_TRUE(q.push(1.0, pin).ok());
+  EXPECT_TRUE(q.push(1.0, pin, 0.5).ok());
+}
+
+TEST(CommandQueue, TicketsFollowTheirCommandsAndCanBeWithdrawn) {
+  CommandQueue q(10);
+  ASSERT_TRUE(q.push(-1.0, forceNumbered(1), 0.0, 7).ok());
+  ASSERT_TRUE(q.push(-1.0, forceNumbered(2)).ok());
+  ASSERT_TRUE(q.push(-1.0, forceNumbered(3), 0.0, 9).ok());
+  std::array<std::uint64_t, kCommandTopics> dropped{};
+  EXPECT_EQ(q.withdrawTicketed(dropped), (std::vector<std::uint64_t>{7, 9}));
+  EXPECT_EQ(dropped[static_cast<std::size_t>(CommandTopic::Force)], 2u);
+  EXPECT_EQ(q.size(CommandTopic::Force), 1u);
+  ASSERT_TRUE(q.push(-1.0, forceNumbered(4), 0.0, 11).ok());
+  std::vector<std::uint64_t> tickets;
+  const std::vector<Command> due = q.takeDue(0.0, &tickets);
+  ASSERT_EQ(due.size(), 2u);
+  EXPECT_EQ(vertexOf(due[0]), 2u);
+  EXPECT_EQ(vertexOf(due[1]), 4u);
+  EXPECT_EQ(tickets, (std::vector<std::uint64_t>{0, 11}));
+  CommandInbox inbox(5);
+  ASSERT_TRUE(inbox.push(forceNumbered(5), 3));
+  ASSERT_TRUE(inbox.push(forceNumbered(6)));
+  tickets.clear();
+  EXPECT_EQ(inbox.take(&tickets).size(), 2u);
+  EXPECT_EQ(tickets, (std::vector<std::uint64_t>{3, 0}));
 }
 
 TEST(CommandInbox, CountsWhatItRefusesWhenFull) {

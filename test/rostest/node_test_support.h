@@ -5,6 +5,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
+#include <std_srvs/Trigger.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include <atomic>
@@ -25,6 +26,13 @@ namespace fem_cloth_test {
 
 constexpr const char* kNode = "/fem_cloth_node";
 inline std::string topic(const std::string& name) { return std::string(kNode) + "/" + name; }
+
+/// Calls the node's std_srvs/Trigger service `name` (~pause, ~resume, ~step, ~reset): true when
+/// it answered success.
+inline bool trigger(const std::string& name) {
+  std_srvs::Trigger t;
+  return ros::service::call(topic(name), t) && t.response.success;
+}
 
 // --- Commands and frames as the tests send them -------------------------------------------------
 

@@ -428,6 +428,27 @@ TEST(StartUp, ParametersNoRosTimeCanHoldStopItWithExitTwoNamingThem) {
   }
 }
 
+// Values roscpp or the node once took silently (issue 31, part 5): getParam rounds 5.5 to an
+// integer, a frame name with blanks names nothing tf can look up, a real-time factor of 1e308
+// makes every step due at once, and a camera in the simulation frame is a transform of that
+// frame to itself.
+TEST(StartUp, ParametersOnceTakenSilentlyStopItWithExitTwoNamingThem) {
+  const std::string camera = " _camera/width:=64 _camera/height:=48 _camera/horizontal_fov:=1.0";
+  for (const auto& [name, argument, expected] :
+       std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"queue", "_command_queue_size:=5.5", "parameter ~command_queue_size must be an integer, got '5.5'"},
+           {"pending", "_max_pending_commands:=abc", "parameter ~max_pending_commands must be an integer, got 'abc'"},
+           {"frame", "'_frame_id:=a b/ c'", "parameter ~frame_id must be a frame name without blanks"},
+           {"fast", "_real_time_factor:=1e308", "parameter ~real_time_factor must be between 0.001 and 1000"},
+           {"slow", "_real_time_factor:=0.0001", "parameter ~real_time_factor must be between 0.001 and 1000"},
+           {"camera", "_camera/frame_id:=world" + camera, "parameter ~camera/frame_id is 'world', the simulation frame"},
+           {"blank", "'_camera/frame_id:=my camera'" + camera, "parameter ~camera/frame_id must be a frame name without blanks"}}) {
+    std::string output;
+    EXPECT_EQ(runNode(name, argument, &output), 2) << argument << ": " << output;
+    EXPECT_TRUE(contains(output, expected)) << argument << ": " << output;
+  }
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_reliability");

@@ -17,6 +17,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -28,7 +30,10 @@
 #include "../run_program.h"
 #include "fem_cloth/ClothState.h"
 #include "fem_cloth/ForceCommand.h"
+#include "fem_cloth/GraspCommand.h"
+#include "fem_cloth/ObstacleCommand.h"
 #include "fem_cloth/PinCommand.h"
+#include "fem_cloth/SetCommand.h"
 
 namespace fs = std::filesystem;
 using fem_cloth::test::ProgramResult;
@@ -49,6 +54,10 @@ const std::string kRegressions = std::string(FEM_CLOTH_SOURCE_DIR) + "/test/data
 constexpr int kTimeBound = 60;
 
 const std::uint64_t kSeed = std::stoull(fromEnvironment("FEM_CLOTH_FUZZ_SEED", "20260611"));
+// How many times the usual number of cases each generator makes (thousands on demand).
+const int kCaseFactor = std::max(1, std::stoi(fromEnvironment("FEM_CLOTH_FUZZ_CASES", "1")));
+// Bytes of /etc/passwd no refusal may echo (issue 31: a preset naming it echoed its first bytes).
+const char* kPasswdBytes = "root:x:0:0";
 
 const TempDir& scratch() {
   static const TempDir dir("fem_cloth_test_fuzz");
@@ -412,6 +421,115 @@ duration: 0.1
   return path;
 }
 
+// The positions of every ClothState in a bag, by step (empty when rosbag cannot read it).
+std::map<std::uint64_t, std::vector<double>> recordedPositions(const std::string& path) {
+  std::map<std::uint64_t, std::vector<double>> out;
+  try {
+    rosbag::Bag bag(path);
+    for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+      const fem_cloth::ClothState::ConstPtr s = m.instantiate<fem_cloth::ClothState>();
+      if (!s) continue;
+      std::vector<double>& xs = out[s->step];
+      xs.clear();
+      for (const auto& p : s->positions) xs.insert(xs.end(), {p.x, p.y, p.z});
+    }
+  } catch (const std::exception&) {
+    return {};
+  }
+  return out;
+}
+
+// Whether a damaged bag still reads as states and one of them differs, bit for bit, from the
+// intact bag's state of the same step (a truncated bag whose states are all right does not).
+bool statesDiffer(const std::string& damaged, const std::string& intact) {
+  const std::map<std::uint64_t, std::vector<double>> a = recordedPositions(damaged), b = recordedPositions(intact);
+  for (const auto& [step, xs] : a) {
+    const auto it = b.find(step);
+    if (it == b.end()) continue;  // a step number damaged: nothing to compare with
+    if (xs.size() != it->second.size()) return true;
+    if (std::memcmp(xs.data(), it->second.data(), xs.size() * sizeof(double)) != 0) return true;
+  }
+  return false;
+}
+
+// A recording with `commands` written into it at their stamps (a command stream as a node would
+// record it on ~applied_<topic>; some of them invalid).
+template <class M>
+void writeCommand(rosbag::Bag& bag, const std::string& topic, const M& m) {
+  bag.write("/fem_cloth_node/applied_" + topic, m.header.stamp.isZero() ? ros::Time(1e-9) : m.header.stamp, m);
+}
+
+std::string withCommandStream(const std::string& base, const std::string& path, Random& random, std::string& what) {
+  rosbag::Bag in(base), out(path, rosbag::bagmode::Write);
+  for (const rosbag::MessageInstance& m : rosbag::View(in)) out.write(m.getTopic(), m.getTime(), m);
+  const std::vector<std::string> pairs = {"damping.mass=0.3", "gravity=[0, 0, -2]", "material.poisson_ratio=0.7",
+                                          "material.youngs_modulus=4.0e6", "mesh.rows=9", "bending.stiffness=1e-5"};
+  const std::vector<std::string> entries = {"{type: sphere, center: [0.15, 0.15, -1], radius: 0.1}",
+                                            "{type: sphere, center: [0.15, 0.15, 0], radius: 1.0e4}",
+                                            "{type: plane, point: [0, 0, -2], normal: [0, 0, 1]}",
+                                            "{type: box, center: [0, 0, -3], size: [1, 1, 1]}", "{center: [0, 0, -2]}",
+                                            "{radius: -1}", "[1, 2]"};
+  const std::size_t n = 1 + random.below(8);
+  for (std::size_t k = 0; k < n; ++k) {
+    const ros::Time stamp(0.001 * static_cast<double>(random.below(100)));
+    const std::string at = " at " + std::to_string(stamp.toSec()) + " s; ";
+    switch (random.below(5)) {
+      case 0: {
+        fem_cloth::PinCommand c;
+        c.header.stamp = stamp;
+        c.header.frame_id = random.below(4) == 0 ? "gripper" : "world";
+        c.action = static_cast<std::uint8_t>(1 + random.below(2));  // PIN_IN_PLACE or RELEASE
+        c.vertices = {static_cast<std::uint32_t>(random.below(18))};  // 16 and 17 do not exist
+        what += "pin " + std::to_string(c.vertices[0]) + " in " + c.header.frame_id + at;
+        writeCommand(out, "pin", c);
+        break;
+      }
+      case 1: {
+        fem_cloth::ForceCommand c;
+        c.header.stamp = stamp;
+        c.header.frame_id = "world";
+        c.action = fem_cloth::ForceCommand::APPLY;
+        c.vertices = {static_cast<std::uint32_t>(random.below(16))};
+        c.forces.resize(1);
+        c.forces[0].z = random.below(6) == 0 ? 1e30 : 0.01 * static_cast<double>(random.below(10));
+        c.duration = 0.01 * static_cast<double>(random.below(5));
+        what += "force " + std::to_string(c.forces[0].z) + " N" + at;
+        writeCommand(out, "force", c);
+        break;
+      }
+      case 2: {
+        fem_cloth::SetCommand c;
+        c.header.stamp = stamp;
+        c.pairs = {random.pick(pairs)};
+        what += "set " + c.pairs[0] + at;
+        writeCommand(out, "set", c);
+        break;
+      }
+      case 3: {
+        fem_cloth::ObstacleCommand c;
+        c.header.stamp = stamp;
+        c.action = static_cast<std::uint8_t>(random.below(3));
+        c.name = random.below(5) == 0 ? "other" : "ball";
+        c.entry = c.action == fem_cloth::ObstacleCommand::REMOVE ? "" : random.pick(entries);
+        what += "obstacle " + std::to_string(c.action) + " '" + c.name + "' " + c.entry + at;
+        writeCommand(out, "obstacle", c);
+        break;
+      }
+      default: {
+        fem_cloth::GraspCommand c;
+        c.header.stamp = stamp;
+        c.header.frame_id = "world";
+        c.point.x = c.point.y = 0.1 * static_cast<double>(random.below(4));
+        c.radius = random.below(4) == 0 ? 1e-6 : 0.15;
+        what += "grasp (" + std::to_string(c.point.x) + ", " + std::to_string(c.point.y) + ") r " +
+                std::to_string(c.radius) + at;
+        writeCommand(out, "grasp", c);
+      }
+    }
+  }
+  return path;
+}
+
 }  // namespace
 
 // Inputs that crashed the tools before: each is refused in one line, with status 2 — except a
@@ -436,6 +554,7 @@ TEST(Fuzz, InputsThatCrashedBeforeAreRefused) {
     }
     EXPECT_EQ(r.status, 2) << path << "\n" << r.err;
     EXPECT_EQ(errorLines(r.err).size(), 1u) << path << "\n" << r.err;
+    EXPECT_EQ(r.err.find(kPasswdBytes), std::string::npos) << path << "\n" << r.err;
   }
   EXPECT_GT(count, 0) << "no regression inputs in " << kRegressions;
 }
@@ -451,7 +570,7 @@ TEST(Fuzz, MutatedScenes) {
     EXPECT_EQ(r.status, 0) << "base scene " << i << ": " << r.err;
   }
   std::map<int, int> statuses;
-  const int cases = 120;
+  const int cases = 120 * kCaseFactor;
   for (int c = 0; c < cases; ++c) {
     const std::size_t base = random.below(kScenes.size());
     std::string what = "scene " + std::to_string(base) + ": ";
@@ -485,7 +604,8 @@ TEST(Fuzz, MutatedBags) {
     EXPECT_EQ(r.status, 0) << b << ": " << r.err;
   }
   std::map<int, int> statuses;
-  const int cases = 36;
+  const int cases = 36 * kCaseFactor;
+  int damagedStates = 0;
   for (int c = 0; c < cases; ++c) {
     const std::size_t base = random.below(bases.size());
     std::string what = fs::path(bases[base]).filename().string() + ": ";
@@ -497,6 +617,14 @@ TEST(Fuzz, MutatedBags) {
     const ProgramResult r = runSim({"--commands", file, "--out", scratch().path("case_out.bag"), "-q"});
     ++statuses[r.status];
     checkSim(r, file, what);
+    // A bag whose states differ from the recording's (as rosbag reads them, independently of the
+    // tools) never verifies: --verify re-simulates and compares (issue 31, part 1).
+    if (statesDiffer(file, bases[base])) {
+      ++damagedStates;
+      const ProgramResult v = runSim({"--commands", file, "--verify", "--no-output", "-q"});
+      checkSim(v, file, what + "--verify; ");
+      if (v.status == 0) report("fem_cloth_sim --verify", file, what, v, "damaged states verified (status 0)");
+    }
     // The comparison of the damaged bag with the intact one, for some of them.
     if (c % 4 == 0) {
       const ProgramResult d = runPython(kBagdiff, {file, bases[base]});
@@ -512,7 +640,110 @@ TEST(Fuzz, MutatedBags) {
     }
     if (failures > 10) break;
   }
-  std::printf("[ fuzz     ] %d damaged bags: %d replayed (0), %d refused (2), %d failed (3)\n", cases,
-              statuses[0], statuses[2], statuses[3]);
+  std::printf("[ fuzz     ] %d damaged bags: %d replayed (0), %d refused (2), %d failed (3); %d with states "
+              "damaged, none verified\n", cases, statuses[0], statuses[2], statuses[3], damagedStates);
   EXPECT_GT(statuses[2], cases / 4);
+}
+
+// Command streams as a live run records them, some commands invalid, into a recording: every
+// replay ends as documented, and one that succeeds wrote finite states, the same bit for bit
+// when the stream is replayed again (as rosbag reads them, not as the tools report).
+TEST(Fuzz, CommandStreams) {
+  Random random(kSeed + 2);
+  const std::string base = recording("streams.bag", rosbag::compression::Uncompressed);
+  std::map<int, int> statuses;
+  const int cases = 40 * kCaseFactor;
+  for (int c = 0; c < cases; ++c) {
+    std::string what;
+    const std::string file = withCommandStream(base, scratch().path("stream.bag"), random, what);
+    const std::string first = scratch().path("stream_first.bag"), again = scratch().path("stream_again.bag");
+    const ProgramResult r = runSim({"--commands", file, "--out", first, "-q"});
+    ++statuses[r.status];
+    checkSim(r, file, what);
+    if (r.status == 0) {
+      const ProgramResult r2 = runSim({"--commands", file, "--out", again, "-q"});
+      if (r2.status != 0) report("fem_cloth_sim", file, what, r2, "a second replay ended otherwise");
+      const std::map<std::uint64_t, std::vector<double>> states = recordedPositions(first);
+      if (states.empty()) report("fem_cloth_sim", file, what, r, "status 0 but no states written");
+      for (const auto& [step, xs] : states) {
+        if (!std::all_of(xs.begin(), xs.end(), [](double x) { return std::isfinite(x); })) {
+          report("fem_cloth_sim", file, what, r, "status 0 with a state not finite at step " + std::to_string(step));
+          break;
+        }
+      }
+      if (statesDiffer(again, first)) report("fem_cloth_sim", file, what, r2, "two replays of one stream differ");
+    }
+    if (failures > 10) break;
+  }
+  std::printf("[ fuzz     ] %d command streams: %d replayed (0), %d refused (2), %d failed (3)\n", cases,
+              statuses[0], statuses[2], statuses[3]);
+  EXPECT_GT(statuses[0], cases / 4);
+}
+
+// Issue 31's repro of --verify: a recording whose states were moved (by 1 m in z from step 4
+// on, hashes kept), hold a NaN, or miss a vertex never verifies (4: not reproduced; 2: damaged).
+TEST(Fuzz, ATamperedRecordingNeverVerifies) {
+  const std::string base = recording("tamper_base.bag", rosbag::compression::Uncompressed);
+  const std::vector<std::pair<std::string, std::function<void(fem_cloth::ClothState&)>>> tampers = {
+      {"moved", [](fem_cloth::ClothState& s) { for (auto& p : s.positions) p.z += 1.0; }},
+      {"nan", [](fem_cloth::ClothState& s) { s.positions[3].x = std::nan(""); }},
+      {"short", [](fem_cloth::ClothState& s) { s.positions.pop_back(); }}};
+  for (const auto& [name, tamper] : tampers) {
+    const std::string file = scratch().path("tampered_" + name + ".bag");
+    {
+      rosbag::Bag in(base), out(file, rosbag::bagmode::Write);
+      for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+        fem_cloth::ClothState::ConstPtr s = m.instantiate<fem_cloth::ClothState>();
+        if (!s || s->step < 4) {
+          out.write(m.getTopic(), m.getTime(), m);
+          continue;
+        }
+        fem_cloth::ClothState changed = *s;
+        tamper(changed);
+        out.write(m.getTopic(), m.getTime(), changed);
+      }
+    }
+    ASSERT_TRUE(statesDiffer(file, base)) << name;
+    const ProgramResult v = runSim({"--commands", file, "--verify", "--no-output", "-q"});
+    EXPECT_EQ(v.status, name == "moved" ? 4 : 2) << name << "\n" << v.err;
+  }
+}
+
+// No refusal echoes a file that is not a scene (issue 31, part 4): given as the scene, named as
+// a preset by a scene, a --set, or the scene stored in a bag.
+TEST(Fuzz, NoRefusalEchoesAFileThatIsNotAScene) {
+  const std::string secret = scratch().write("passwd", "secretuser:x:1000:1000::/home/secretuser:/bin/sh\n");
+  const std::string scene = scratch().write("preset_scene.yaml", kScenes[0]);
+  const std::string deep = "../../../../../../../../../../../../etc/passwd";
+  const std::string bag = scratch().path("preset_scene.bag");
+  {
+    rosbag::Bag in(recording("preset_base.bag", rosbag::compression::Uncompressed)), out(bag, rosbag::bagmode::Write);
+    for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+      const std_msgs::String::ConstPtr text = m.instantiate<std_msgs::String>();
+      if (!text || m.getTopic() != "/fem_cloth_node/scene") {
+        out.write(m.getTopic(), m.getTime(), m);
+        continue;
+      }
+      YAML::Node doc = YAML::Load(text->data);
+      doc["material"]["preset"] = secret;
+      YAML::Emitter e;
+      e << doc;
+      std_msgs::String changed;
+      changed.data = e.c_str();
+      out.write(m.getTopic(), m.getTime(), changed);
+    }
+  }
+  const std::vector<std::vector<std::string>> runs = {
+      {"--scene", secret, "--no-output", "-q"},
+      {"--scene", scene, "--set", "material.preset=" + secret, "--no-output", "-q"},
+      {"--scene", scene, "--set", "material.preset=" + deep, "--no-output", "-q"},
+      {"--commands", bag, "--no-output", "-q"}};
+  for (const std::vector<std::string>& args : runs) {
+    const ProgramResult r = runSim(args);
+    const std::string what = args[0] + " " + args[1] + (args.size() > 4 ? " " + args[3] : "");
+    EXPECT_EQ(r.status, 2) << what << "\n" << r.err;
+    EXPECT_EQ(errorLines(r.err).size(), 1u) << what << "\n" << r.err;
+    EXPECT_EQ(r.err.find("secretuser"), std::string::npos) << what << "\n" << r.err;
+    EXPECT_EQ(r.err.find(kPasswdBytes), std::string::npos) << what << "\n" << r.err;
+  }
 }

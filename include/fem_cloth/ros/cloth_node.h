@@ -125,6 +125,14 @@ class ClothNode {
   bool transformsReady();
   /// One step and its outputs.
   void stepOnce();
+  /// Publishes the commands the driver applied on ~applied_<topic>, and answers the services'
+  /// callers waiting for them (applied in the state of appliedAtStep_).
+  void publishApplied();
+  /// A paused node: applies the services' requests due now, without a step.
+  void applyWhilePaused();
+  /// The services' commands still pending are dropped (a self-pause, a ~reset): their callers
+  /// hear `why`.
+  void dropServiceCommands(const std::string& why);
   /// After a step taken while running: counts a failed attempt at the same step (warning on the
   /// first); true when the node has paused itself, at max_failed_attempts (stopOnFailure()).
   bool countFailedAttempt();
@@ -220,6 +228,8 @@ class ClothNode {
   double rtfWindowStepWall_ = 0.0;  // s of wall time the window's steps took themselves
   double stepWallTime_ = 0.0;
   StepReport lastReport_;
+  std::uint64_t appliedAtStep_ = 0;  // the state the commands applied last took effect in
+  double appliedAtTime_ = 0.0;
   std::uint64_t failedSteps_ = 0;
   int failedAttempts_ = 0;      // failed attempts in a row at the current step while running
   SelfPause selfPause_ = SelfPause::None;  // while paused by itself: for what

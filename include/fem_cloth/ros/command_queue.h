@@ -98,16 +98,26 @@ struct CommandCounts {
 };
 
 /// Validated commands waiting for their simulation time, in time order (equal times keep their
-/// arrival order, so a replayed stream applies the same way), at most `capacity` of them.
+/// arrival order, so a replayed stream applies the same way). Each topic may hold at most
+/// `capacity` commands for a later step: one topic's future commands never crowd out another's,
+/// and a command for the next step is never refused.
 class CommandQueue {
  public:
   explicit CommandQueue(std::size_t capacity) : capacity_(capacity) {}
 
-  /// Queues `command` to take effect at simulation time `time` (<= 0: before the next step),
-  /// after those due at the same time or earlier. Refused, naming the capacity, when full.
-  Status push(double time, Command command);
-  /// Removes and returns the commands due at or before `time`, in order.
-  std::vector<Command> takeDue(double time);
+  /// Queues `command` to take effect at simulation time `time` (<= now: before the next step),
+  /// after those due at the same time or earlier. A command for later is refused, naming the
+  /// capacity, when `capacity` commands of its topic already wait. `ticket` (0: none) follows
+  /// the command to takeDue(), for whoever waits for its outcome.
+  Status push(double time, Command command, double now = -1.0, std::uint64_t ticket = 0);
+  /// Removes and returns the commands due at or before `time`, in order (their tickets, in the
+  /// same order, into `tickets` when given); with `ticketedOnly`, only those with a ticket.
+  std::vector<Command> takeDue(double time, std::vector<std::uint64_t>* tickets = nullptr, bool ticketedOnly = false);
+  /// Whether a command with a ticket is due at or before `time`.
+  bool ticketedDue(double time) const;
+  /// Removes the commands that carry a ticket; returns their tickets and adds them to `dropped`
+  /// (per topic).
+  std::vector<std::uint64_t> withdrawTicketed(std::array<std::uint64_t, kCommandTopics>& dropped);
   /// The commands due at or before `time`, left in the queue.
   std::vector<const Command*> due(double time) const;
   /// Drops every command; returns how many of each topic were dropped.
@@ -124,6 +134,7 @@ class CommandQueue {
   struct Pending {
     double time;
     Command command;
+    std::uint64_t ticket;
   };
   std::size_t capacity_;
   std::deque<Pending> pending_;
@@ -137,11 +148,13 @@ class CommandInbox {
   explicit CommandInbox(std::size_t capacity) : capacity_(capacity) {}
 
   /// False (the command is counted as refused) when `capacity` commands already wait.
-  bool push(Command command);
+  /// `ticket` (0: none) comes out of take() with the command.
+  bool push(Command command, std::uint64_t ticket = 0);
   /// Counts a request of `topic` that a service refused on its own check (received, invalid).
   void refuse(CommandTopic topic);
-  /// Every waiting command, in arrival order.
-  std::vector<Command> take();
+  /// Every waiting command, in arrival order (their tickets, in the same order, into `tickets`
+  /// when given).
+  std::vector<Command> take(std::vector<std::uint64_t>* tickets = nullptr);
 
   struct Tally {
     std::uint64_t received = 0, refused = 0, waiting = 0;
@@ -154,6 +167,7 @@ class CommandInbox {
   std::size_t capacity_;
   mutable std::mutex mutex_;
   std::vector<Command> waiting_;
+  std::vector<std::uint64_t> tickets_;
   std::array<Tally, kCommandTopics> tally_{};
 };
 

@@ -25,6 +25,15 @@ bool readParam(const ros::NodeHandle& nh, const std::string& name, T& value, std
   return true;
 }
 
+/// An integer parameter: a number with a fraction (5.5), which roscpp's getParam would round,
+/// is an error naming it, as is any other type.
+bool readParam(const ros::NodeHandle& nh, const std::string& name, int& value, std::string* error,
+               const char* expected);
+
+/// Why `frame` cannot be the tf frame of parameter `parameter` (a name, "~frame_id"): empty,
+/// or with blanks or control characters (tf would take it, and nothing could name it back).
+Status frameNameProblem(const std::string& frame, const std::string& parameter);
+
 /// Converts a parameter tree into YAML (structs to maps, arrays to lists, scalars to scalars).
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
 

@@ -76,8 +76,9 @@ class SimulationDriver {
   void startSegment(const ros::Time& stamp);
 
   /// Validates a command against the mesh, the tf buffer and itself, and queues it. A command
-  /// is rejected whole; the message names the problem.
-  Status submit(const Command& command);
+  /// is rejected whole; the message names the problem. A command with a `ticket` (not 0) has its
+  /// outcome, once it is applied or fails when due, listed by takeOutcomes().
+  Status submit(const Command& command, std::uint64_t ticket = 0);
   std::size_t pendingCommands() const { return pending_.size(); }
   /// What became of the commands of a topic since construction (submitted = received; reset()
   /// does not clear the counts).
@@ -100,6 +101,21 @@ class SimulationDriver {
   /// is a warning too. The step itself fails as Simulator::step does, or when its end would map
   /// to no ROS time.
   StepReport step();
+  /// Applies the ticketed commands due now (a service's request, whose caller waits) without
+  /// stepping: a paused node. They take effect before the next step either way; the others
+  /// (from the topics) still wait for it.
+  void applyTicketedNow();
+  /// Whether a ticketed command is due now (applyTicketedNow() would apply or refuse it).
+  bool ticketedDueNow() const;
+  /// What became of the ticketed commands applied or failed since the last call.
+  struct Outcome {
+    std::uint64_t ticket = 0;
+    Status status;    ///< applied, or why not
+    Command command;  ///< as applied (GraspCommand: with the vertices it pinned)
+  };
+  std::vector<Outcome> takeOutcomes();
+  /// Drops the ticketed commands still pending (counted as discarded); returns their tickets.
+  std::vector<std::uint64_t> withdrawTicketed();
   /// Back to the initial state; pending commands (counted as discarded) and frame-following pins
   /// are dropped, and the timeline keeps its first segment only.
   void reset();
@@ -133,6 +149,9 @@ class SimulationDriver {
   /// naming header.stamp when no ROS duration relates it to the timeline.
   Expected<double> commandTime(const ros::Time& stamp) const;
   Status checkFrame(const std::string& frame, const ros::Time& stamp) const;
+  /// Refuses a grasp frame whose wrench topic (graspWrenchTopic()) is that of another frame
+  /// pins follow, or of the simulation frame.
+  Status checkWrenchTopic(const std::string& frame) const;
   // Per command type (simulation_driver.cpp): validation when submitted, the effect when due,
   // and the simulation times (0: the step's start, 1: its end) whose transforms it needs.
   template <class C>
@@ -143,7 +162,7 @@ class SimulationDriver {
   std::vector<int> transformTimes(const C& command) const;
   /// (frame, simulation time) of every transform the next step needs.
   std::vector<std::pair<std::string, double>> neededTransforms() const;
-  void applyDue(double t);
+  void applyDue(double t, bool ticketedOnly = false);
   /// The simulation rebuilt for a changed scene (core/live_change.h), continuing from now.
   Status changeScene(Expected<LiveChange> change);
   /// The document to change, or an error when the driver has none.
@@ -164,7 +183,13 @@ class SimulationDriver {
   std::map<std::size_t, Eigen::Isometry3d> obstacleFrame_;  // last known pose of a followed frame
   std::vector<std::string> warnings_;
   std::vector<Command> applied_;
+  std::vector<Outcome> outcomes_;
 };
+
+/// The node's wrench topic of the pins that follow `frame`: grasp/<frame>/wrench, with the
+/// characters a ROS name cannot hold as '_' (frames that differ only there would share it: the
+/// driver refuses the second, SimulationDriver::check()).
+std::string graspWrenchTopic(const std::string& frame);
 
 /// Why `name` cannot name an obstacle (it names the topic ~obstacles/<name>/wrench): not a valid
 /// ROS name, or with a '/'.
