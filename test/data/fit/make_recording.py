@@ -1,0 +1,150 @@
+#!/usr/bin/python3
+"""Re-makes the synthetic recording fem_cloth_fit's test and docs/fitting.md fit:
+test/data/fit/grasp_markers.bag.
+
+The commands of test/data/small_grasp.bag (the small test cloth grasped and lifted by
+fem_cloth_grasp_demo) are re-simulated by fem_cloth_sim --commands with the parameters of
+truth.yaml (on the commands bag's scene with truth.yaml's scene changes); a motion-capture marker set is then "seen" on that run: markers on every
+grid_step-th row and column of the grid, in a frame of their own (placed by a /tf_static
+transform), each coordinate with Gaussian noise, some markers missing (NaN) in some frames. The
+recording holds the commands bag's topics (scene, mesh, applied pins, tf) without its states
+(~state is not an observation) and the markers on /mocap/markers.
+
+  test/data/fit/make_recording.py [--sim PATH] [--out FILE.bag]
+
+Needs a built fem_cloth_sim (scripts/test builds it).
+"""
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+import yaml
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(HERE)))
+sys.path.insert(0, os.path.join(ROOT, "src"))
+
+from fem_cloth.batch.batch import find_program  # noqa: E402
+from fem_cloth.fit.data import NODE, _rotation  # noqa: E402
+
+COMMANDS = os.path.join(ROOT, "test", "data", "small_grasp.bag")
+MARKERS_TOPIC = "/mocap/markers"
+
+
+def truth():
+    with open(os.path.join(HERE, "truth.yaml"), encoding="utf-8") as f:
+        return yaml.safe_load(f)
+
+
+def simulate(sim, commands, values, out):
+    argv = [sim, "--commands", commands, "--quiet", "--out", out]
+    for key, value in values.items():
+        argv += ["--set", f"{key}={value!r}"]
+    subprocess.run(argv, check=True, stdout=subprocess.DEVNULL)
+
+
+def base_scene(sim, bag, changes, out):
+    """The commands bag's scene with `changes` (scene key: value) applied, as a file and as text."""
+    from std_msgs.msg import String
+    recorded = next(msg for _, msg, _ in bag.read_messages(topics=[f"{NODE}/scene"]))
+    with open(out + ".recorded", "w", encoding="utf-8") as f:
+        f.write(recorded.data)
+    argv = [sim, "--scene", out + ".recorded", "--check", "--write-scene", out]
+    for key, value in changes.items():
+        argv += ["--set", f"{key}={value}"]
+    subprocess.run(argv, check=True, stdout=subprocess.DEVNULL)
+    with open(out, encoding="utf-8") as f:
+        return String(f.read())
+
+
+def write_commands(sim, out, scene_changes, scene_path):
+    """The commands of small_grasp.bag without its states, starting at its first state: the node
+    was started paused, and a replay of a bag without states starts at its first message (scene,
+    mesh and /tf_static are moved to that time, /tf keeps its last message before it)."""
+    import rosbag
+    with rosbag.Bag(COMMANDS) as source, rosbag.Bag(out, "w", compression="lz4") as bag:
+        start = next(msg for _, msg, _ in source.read_messages(topics=[f"{NODE}/state"])).header.stamp
+        scene = base_scene(sim, source, scene_changes, scene_path)
+        last_tf = None
+        for topic, msg, t in source.read_messages():
+            if topic == f"{NODE}/state":
+                continue
+            if topic == f"{NODE}/scene":
+                msg = scene
+            if t < start and topic == "/tf":
+                last_tf = msg
+                continue
+            if last_tf is not None and t >= start:
+                bag.write("/tf", last_tf, start)
+                last_tf = None
+            bag.write(topic, msg, max(t, start))
+
+
+def marker_cloud(stamp, frame, vertices, points):
+    from sensor_msgs import point_cloud2
+    from sensor_msgs.msg import PointField
+    from std_msgs.msg import Header
+    fields = [PointField("x", 0, PointField.FLOAT32, 1), PointField("y", 4, PointField.FLOAT32, 1),
+              PointField("z", 8, PointField.FLOAT32, 1), PointField("vertex", 12, PointField.UINT32, 1)]
+    header = Header(stamp=stamp, frame_id=frame)
+    return point_cloud2.create_cloud(header, fields, [(*p, int(v)) for v, p in zip(vertices, points)])
+
+
+def static_frame(parent, child, position, rotation, stamp):
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
+    t = TransformStamped()
+    t.header.stamp, t.header.frame_id, t.child_frame_id = stamp, parent, child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = position
+    r = t.transform.rotation
+    r.x, r.y, r.z, r.w = rotation
+    return TFMessage([t])
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sim", help="fem_cloth_sim (default: this tree's build)")
+    parser.add_argument("--out", default=os.path.join(HERE, "grasp_markers.bag"))
+    args = parser.parse_args()
+    import rosbag
+    spec = truth()
+    m = spec["markers"]
+    values = {k: v for k, v in spec.items() if k not in ("markers", "scene")}
+    rng = np.random.default_rng(m["seed"])
+    sim = find_program("fem_cloth_sim", args.sim)
+    with tempfile.TemporaryDirectory() as tmp:
+        commands = os.path.join(tmp, "commands.bag")
+        write_commands(sim, commands, spec["scene"], os.path.join(tmp, "scene.yaml"))
+        run = os.path.join(tmp, "truth.bag")
+        simulate(sim, commands, values, run)
+        with rosbag.Bag(run) as bag:
+            states = [msg for _, msg, _ in bag.read_messages(topics=[f"{NODE}/state"])]
+            mesh = next(msg for _, msg, _ in bag.read_messages(topics=[f"{NODE}/mesh"]))
+        shutil.copy(commands, args.out)
+    cols = int(round(np.sqrt(len(mesh.vertices))))  # the square test grid
+    grid = range(0, cols, m["grid_step"])
+    vertices = np.array([r * cols + c for r in grid for c in grid])
+    rotation = _rotation(*m["frame_rotation"])
+    position = np.array(m["frame_position"])
+    sim_frame = states[0].header.frame_id
+    with rosbag.Bag(args.out, "a") as out:
+        first = states[0].header.stamp
+        out.write("/tf_static", static_frame(sim_frame, m["frame"], position, m["frame_rotation"], first), first)
+        for state in states:
+            if state.step % m["every"]:
+                continue
+            p = np.array([(q.x, q.y, q.z) for q in state.positions])[vertices]
+            seen = (p - position) @ rotation  # p_mocap = R^T (p_sim - t)
+            seen += rng.normal(0.0, m["noise"], seen.shape)
+            seen[rng.random(len(vertices)) < m["lost"]] = np.nan
+            out.write(MARKERS_TOPIC, marker_cloud(state.header.stamp, m["frame"], vertices, seen),
+                      state.header.stamp)
+    print(f"{args.out}: {len(vertices)} markers, {sum(1 for s in states if s.step % m['every'] == 0)} frames")
+
+
+if __name__ == "__main__":
+    main()
