@@ -1,7 +1,8 @@
 """fem_cloth_fit: the simulation's parameters fitted to a recording (docs/fitting.md).
 
   fem_cloth_fit RECORDING.bag --param KEY=LOW:HIGH [--param ...] [--start KEY=VALUE ...]
-                --out DIR [--scene BASE.yaml] [--markers TOPIC] [--method least_squares]
+                --out DIR [--scene BASE.yaml] [--markers TOPIC | --depth TOPIC [--camera-info TOPIC]]
+                [--method least_squares]
                 [--max-evaluations N] [--profile-points K] [--workers N | --scheduler ADDRESS]
                 [--sim PATH] [--node /fem_cloth_node] [--quiet]
 
@@ -50,6 +51,10 @@ def _parser():
     parser.add_argument("--scene", metavar="FILE", help="the base scene (default: the recording's own)")
     parser.add_argument("--markers", metavar="TOPIC", help="the marker cloud (PointCloud2 with x, y, z, "
                         "vertex); default: the recording's only observation topic")
+    parser.add_argument("--depth", metavar="TOPIC", help="a depth image topic (sensor_msgs/Image 32FC1 "
+                        "or 16UC1) from a camera fixed by /tf_static")
+    parser.add_argument("--camera-info", metavar="TOPIC", help="its CameraInfo (default: camera_info "
+                        "next to the image topic)")
     parser.add_argument("--method", choices=fit.METHODS, default="least_squares",
                         help="scipy.optimize method (default least_squares, trust-region reflective)")
     parser.add_argument("--max-evaluations", type=int, default=60, metavar="N",
@@ -143,6 +148,46 @@ def _profile(problem, u_best, points, say):
     return out
 
 
+def _plot_markers(ax, problem, u_start, u_best):
+    """The heights of the three markers that move most: observed, simulated at start and fit."""
+    obs = problem.observations
+    before = problem.simulated_positions(u_start)
+    after = problem.simulated_positions(u_best)
+    seconds = (obs.stamps - obs.stamps[0]) / 1e9
+    # The markers seen in every frame; the three that move most.
+    common = set(obs.vertices[0].tolist())
+    for v in obs.vertices[1:]:
+        common &= set(v.tolist())
+    chosen = sorted(common)
+    motion = {v: np.ptp([p[list(vs).index(v), 2] for vs, p in zip(obs.vertices, obs.points)]) for v in chosen}
+    chosen = sorted(chosen, key=lambda v: -motion[v])[:3]
+    for c, v in enumerate(chosen):
+        z_obs = [p[list(vs).index(v), 2] for vs, p in zip(obs.vertices, obs.points)]
+        ax.plot(seconds, z_obs, ".", color=f"C{c}", ms=3, label=f"vertex {v}: observed")
+        if before is not None:
+            ax.plot(seconds, [s[v, 2] for s in before], ":", color=f"C{c}", label="simulated, start")
+        if after is not None:
+            ax.plot(seconds, [s[v, 2] for s in after], "-", color=f"C{c}", label="simulated, fitted")
+    ax.set_xlabel("time since the first observation (s)")
+    ax.set_ylabel("marker height z (m, simulation frame)")
+    ax.set_title("observed against simulated")
+    ax.legend(fontsize=7, ncol=3)
+
+
+def _plot_depth(ax, problem, u_start, u_best):
+    """Per frame, the RMS robust distance of the observed points to the simulated visible surface."""
+    obs = problem.observations
+    seconds = (obs.stamps - obs.stamps[0]) / 1e9
+    sizes = np.cumsum([len(p) for p in obs.points])[:-1]
+    for u, style, label in ((u_start, ":", "simulated, start"), (u_best, "-", "simulated, fitted")):
+        frames = np.split(problem.evaluate([u])[0], sizes)
+        ax.plot(seconds, [np.sqrt(np.mean(f * f)) if len(f) else np.nan for f in frames], style, label=label)
+    ax.set_xlabel("time since the first observation (s)")
+    ax.set_ylabel("RMS point-to-surface distance (m)")
+    ax.set_title(f"observed depth points against the simulated surface ({obs.topic})", fontsize=9)
+    ax.legend()
+
+
 def _plots(out, problem, report, u_start, u_best, slices):
     import matplotlib
     matplotlib.use("Agg")
@@ -155,36 +200,18 @@ def _plots(out, problem, report, u_start, u_best, slices):
     best = np.minimum.accumulate(losses)
     ax.semilogy(evaluations, best, "-", color="C0", label="best so far")
     ax.set_xlabel("candidate (simulation run)")
-    ax.set_ylabel("RMS marker distance (m)")
+    ax.set_ylabel(problem.observations.loss_name)
     ax.set_title(f"fem_cloth_fit: loss ({report['method']})")
     ax.legend()
     fig.tight_layout()
     fig.savefig(os.path.join(out, "loss.png"), dpi=100)
     plt.close(fig)
 
-    obs = problem.observations
-    before = problem.simulated_positions(u_start)
-    after = problem.simulated_positions(u_best)
-    seconds = (obs.stamps - obs.stamps[0]) / 1e9
-    # The markers seen in every frame; the three that move most.
-    common = set(obs.vertices[0].tolist())
-    for v in obs.vertices[1:]:
-        common &= set(v.tolist())
-    chosen = sorted(common)
-    motion = {v: np.ptp([p[list(vs).index(v), 2] for vs, p in zip(obs.vertices, obs.points)]) for v in chosen}
-    chosen = sorted(chosen, key=lambda v: -motion[v])[:3]
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for c, v in enumerate(chosen):
-        z_obs = [p[list(vs).index(v), 2] for vs, p in zip(obs.vertices, obs.points)]
-        ax.plot(seconds, z_obs, ".", color=f"C{c}", ms=3, label=f"vertex {v}: observed")
-        if before is not None:
-            ax.plot(seconds, [s[v, 2] for s in before], ":", color=f"C{c}", label="simulated, start")
-        if after is not None:
-            ax.plot(seconds, [s[v, 2] for s in after], "-", color=f"C{c}", label="simulated, fitted")
-    ax.set_xlabel("time since the first observation (s)")
-    ax.set_ylabel("marker height z (m, simulation frame)")
-    ax.set_title("observed against simulated")
-    ax.legend(fontsize=7, ncol=3)
+    if problem.observations.kind == "markers":
+        _plot_markers(ax, problem, u_start, u_best)
+    else:
+        _plot_depth(ax, problem, u_start, u_best)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "observed_vs_simulated.png"), dpi=100)
     plt.close(fig)
@@ -192,14 +219,15 @@ def _plots(out, problem, report, u_start, u_best, slices):
     if slices:
         fig, axes = plt.subplots(1, len(slices), figsize=(4 * len(slices), 3.5), squeeze=False)
         for ax, param, line, entry in zip(axes[0], problem.params, slices, report["parameters"]):
-            ax.plot(line["values"], line["loss_m"], "o-")
-            ax.axvline(entry["fitted"], color="C1", label="fitted")
+            ax.plot(line["values"], line["loss_m"], "o-", label="the others at the fit")
+            ax.plot([entry["fitted"]], [report["loss_after"]], "*", color="C1", ms=12, label="the fit")
             if param.log:
                 ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_xlabel(param.key)
             ax.set_title(entry["verdict"], fontsize=9)
-        axes[0][0].set_ylabel("RMS marker distance (m)")
+        axes[0][0].set_ylabel(problem.observations.loss_name)
+        axes[0][0].legend(fontsize=8)
         fig.tight_layout()
         fig.savefig(os.path.join(out, "loss_slices.png"), dpi=100)
         plt.close(fig)
@@ -215,7 +243,8 @@ def run(args):
         sim = find_program("fem_cloth_sim", args.sim)
     except BatchError as error:
         raise FitError(str(error)) from None
-    recording = Recording(args.recording, args.node, markers=args.markers)
+    recording = Recording(args.recording, args.node, markers=args.markers, depth=args.depth,
+                          camera_info=args.camera_info)
     scene_path = os.path.abspath(args.scene) if args.scene else _bag_scene(recording, work)
     params = _parameters(args, _read_scene(scene_path))
     error = check_scene(sim, scene_path, [f"{p.key}={p.start!r}" for p in params])
@@ -228,7 +257,7 @@ def run(args):
                 raise FitError(f"parameter '{p.name}': bound {bound:g}: {error}")
     obs = recording.observations
     say = (lambda text: None) if args.quiet else _say
-    say(f"{recording.path}: {len(obs)} frames of {obs.count()} markers on {obs.topic}; fitting "
+    say(f"{recording.path}: {len(obs)} frames, {obs.count()} observed points on {obs.topic}; fitting "
         f"{', '.join(p.key for p in params)} by {args.method}")
     started = time.monotonic()
     with Runner(scheduler=args.scheduler, workers=args.workers, quiet=True) as runner:
@@ -255,7 +284,7 @@ def run(args):
         loss_after = problem.loss_of(residuals)
         verdicts, noise = fit.identifiability(problem, u_best, jacobian, residuals)
         report = {"recording": os.path.abspath(recording.path), "observations": obs.topic,
-                  "frames": len(obs), "markers": obs.count(), "method": args.method,
+                  "frames": len(obs), "observed_points": obs.count(), "method": args.method,
                   "loss": obs.loss_name, "loss_before": loss_before, "loss_after": loss_after,
                   "candidates": optimiser_evaluations, "workers": runner.workers,
                   "parameters": []}
@@ -304,14 +333,14 @@ def _write(out, report, scene_path, sim, params, slices):
 
 
 def _summary(report, say, noise):
-    say(f"loss (RMS marker distance): {report['loss_before']:.4g} m before, {report['loss_after']:.4g} m "
+    say(f"loss ({report['loss']}): {report['loss_before']:.4g} m before, {report['loss_after']:.4g} m "
         f"after; {report['candidates_total']} candidate runs in {report['wall_s']:.0f} s on "
         f"{report['workers']} workers (load average {report['load_average']})")
     for e in report["parameters"]:
         low, high = e["interval95"]
         kept = " (the scene keeps the start value)" if e["in_scene"] != e["fitted"] else ""
         say(f"{e['key']}: {_fmt(e['fitted'])} (start {_fmt(e['start'])}; 95 % interval {_fmt(low)} to "
-            f"{_fmt(high)}; {e['change']} moves the markers by {e['effect_of_change_m']:.2g} m RMS, "
+            f"{_fmt(high)}; {e['change']} moves the observed points by {e['effect_of_change_m']:.2g} m RMS, "
             f"residual {noise:.2g} m): {e['verdict']}{kept}")
 
 

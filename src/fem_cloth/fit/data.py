@@ -1,6 +1,6 @@
 """What fem_cloth_fit reads from a recording (docs/fitting.md): the observations — a marker set (a
 sensor_msgs/PointCloud2 of labelled points: fields x, y, z and vertex, the mesh vertex each marker
-sits on) or a depth camera (sensor_msgs/Image 32FC1 or 16UC1 with its CameraInfo) — and the
+sits on) or a depth camera (sensor_msgs/Image 32FC1 or 16UC1 with its CameraInfo; depth.py) — and the
 fixed frames (/tf_static) that place them in the simulation frame. The commands that drove the
 cloth stay in the bag: fem_cloth_sim --commands reads them there.
 
@@ -225,4 +225,5 @@ class Recording:
         return markers
 
     def _read_depth(self, bag, topics, topic, camera_info):
-        raise FitError(f"{topic}: depth images are not supported yet (docs/fitting.md): record a marker set")
+        from fem_cloth.fit.depth import read_depth
+        return read_depth(self, bag, topics, topic, camera_info)

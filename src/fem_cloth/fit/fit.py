@@ -291,6 +291,10 @@ def identifiability(problem, u, jacobian, residuals):
             verdict = "weakly determined"
         else:
             verdict = "determined"
+        low_u, high_u = param.u_bounds()
+        for bound_u, side in ((low_u, "lower"), (high_u, "upper")):
+            if abs(u[j] - bound_u) <= JACOBIAN_STEP * (1 if param.log else 0.1):
+                verdict += f" (at its {side} bound: the data may want a value beyond it)"
         out.append({"effect_m": effect, "interval": interval, "relative_halfwidth": relative,
                     "verdict": verdict})
     return out, noise * math.sqrt(components)

@@ -105,6 +105,83 @@ def static_frame(parent, child, position, rotation, stamp):
     return TFMessage([t])
 
 
+def camera_pose(position, look_at):
+    """The optical frame looking from position at look_at with the simulation's +z up in the image
+    (docs/perception.md): columns x (right), y (down), z (forward) in the simulation frame."""
+    position, look_at = np.asarray(position, float), np.asarray(look_at, float)
+    z = (look_at - position) / np.linalg.norm(look_at - position)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z]), position
+
+
+def quaternion(r):
+    """x y z w of a rotation matrix (its trace is > -1 for the poses used here)."""
+    w = 0.5 * np.sqrt(1.0 + np.trace(r))
+    return [(r[2, 1] - r[1, 2]) / (4 * w), (r[0, 2] - r[2, 0]) / (4 * w), (r[1, 0] - r[0, 1]) / (4 * w), w]
+
+
+def depth_recording(sim, render, out, tmp):
+    """The depth-camera recording: the truth run (states at the camera's rate) rendered by
+    fem_cloth_render (the node's camera renderer, 16-bit millimetres) from the fixed camera of
+    truth.yaml's depth section, with the perception module's noise model (sigma(z) = a + b z^2,
+    dropout; docs/perception.md) drawn here, as 32FC1 images with their CameraInfo; the camera's
+    optical frame on /tf_static."""
+    import rosbag
+    from matplotlib import image as mpimg
+    from sensor_msgs.msg import CameraInfo, Image
+    spec = truth()
+    d = spec["depth"]
+    values = {k: v for k, v in spec.items() if k not in ("markers", "scene", "depth")}
+    commands = os.path.join(tmp, "commands.bag")
+    write_commands(sim, commands, spec["scene"], os.path.join(tmp, "scene.yaml"))
+    run = os.path.join(tmp, "truth.bag")
+    dt = 0.01  # the commands bag's integrator.dt
+    subprocess.run([sim, "--commands", commands, "--quiet", "--out", run, "--every", str(round(1 / (d["fps"] * dt)))]
+                   + [a for k, v in values.items() for a in ("--set", f"{k}={v!r}")], check=True,
+                   stdout=subprocess.DEVNULL)
+    view = os.path.join(tmp, "view.yaml")
+    with open(view, "w", encoding="utf-8") as f:
+        yaml.safe_dump({"camera": {"frame_id": "fit_camera", "pose": {"position": d["position"], "look_at": d["look_at"]},
+                                   "width": d["width"], "height": d["height"], "horizontal_fov": d["horizontal_fov"],
+                                   "min_range": 0.1, "max_range": 8.0}}, f)
+    frames = os.path.join(tmp, "frames")
+    subprocess.run([render, run, "--out", frames, "--view", view, "--fps", str(d["fps"]), "--depth", "--quiet"],
+                   check=True, stdout=subprocess.DEVNULL)
+    every = round(1 / (d["fps"] * dt))
+    with rosbag.Bag(run) as bag:  # the last state of the run is written too, off the camera's rate
+        states = [msg for _, msg, _ in bag.read_messages(topics=[f"{NODE}/state"]) if msg.step % every == 0]
+    pictures = sorted(n for n in os.listdir(frames) if n.startswith("depth_"))
+    if len(pictures) != len(states):
+        raise SystemExit(f"{len(pictures)} depth frames for {len(states)} states")
+    fx = 0.5 * d["width"] / np.tan(0.5 * d["horizontal_fov"])
+    info = CameraInfo(width=d["width"], height=d["height"], distortion_model="plumb_bob", D=[0.0] * 5,
+                      K=[fx, 0, 0.5 * (d["width"] - 1), 0, fx, 0.5 * (d["height"] - 1), 0, 0, 1],
+                      R=[1, 0, 0, 0, 1, 0, 0, 0, 1],
+                      P=[fx, 0, 0.5 * (d["width"] - 1), 0, 0, fx, 0.5 * (d["height"] - 1), 0, 0, 0, 1, 0])
+    info.header.frame_id = "fit_camera"
+    rotation, position = camera_pose(d["position"], d["look_at"])
+    noise = d["noise"]
+    rng = np.random.default_rng(noise["seed"])
+    shutil.copy(commands, out)
+    with rosbag.Bag(out, "a") as bag:
+        first = states[0].header.stamp
+        bag.write("/tf_static", static_frame(states[0].header.frame_id, "fit_camera", position,
+                                             quaternion(rotation), first), first)
+        for state, name in zip(states, pictures):
+            millimetres = np.rint(mpimg.imread(os.path.join(frames, name)) * 65535.0)
+            z = np.where(millimetres > 0, millimetres / 1000.0, np.nan)
+            z = z + rng.normal(0.0, 1.0, z.shape) * (noise["a"] + noise["b"] * z * z)
+            z[rng.random(z.shape) < noise["dropout"]] = np.nan
+            image = Image(height=d["height"], width=d["width"], encoding="32FC1", is_bigendian=0,
+                          step=4 * d["width"], data=z.astype("<f4").tobytes())
+            image.header.stamp, image.header.frame_id = state.header.stamp, "fit_camera"
+            info.header.stamp = state.header.stamp
+            bag.write("/camera/depth/image", image, state.header.stamp)
+            bag.write("/camera/depth/camera_info", info, state.header.stamp)
+    return len(states)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sim", help="fem_cloth_sim (default: this tree's build)")
