@@ -11,6 +11,7 @@ recording holds the commands bag's topics (scene, mesh, applied pins, tf) withou
 (~state is not an observation) and the markers on /mocap/markers.
 
   test/data/fit/make_recording.py [--sim PATH] [--out FILE.bag]
+  test/data/fit/make_recording.py --depth --out FILE.bag     (the depth-camera recording)
 
 Needs a built fem_cloth_sim (scripts/test builds it).
 """
@@ -186,7 +187,15 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sim", help="fem_cloth_sim (default: this tree's build)")
     parser.add_argument("--out", default=os.path.join(HERE, "grasp_markers.bag"))
+    parser.add_argument("--depth", action="store_true", help="the depth-camera recording instead "
+                        "(the test makes it; about 1 MB), to --out")
     args = parser.parse_args()
+    if args.depth:
+        with tempfile.TemporaryDirectory() as tmp:
+            frames = depth_recording(find_program("fem_cloth_sim", args.sim), find_program("fem_cloth_render"),
+                                     args.out, tmp)
+        print(f"{args.out}: {frames} depth frames")
+        return
     import rosbag
     spec = truth()
     m = spec["markers"]
