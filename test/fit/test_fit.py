@@ -223,6 +223,35 @@ class DepthRecovery(Recovery, unittest.TestCase):
         self.assertLess(self.report["loss_after"], self.report["loss_before"] / 2)
         self.assertTrue(os.path.isfile(os.path.join(self.out, "observed_vs_simulated.png")))
 
+    def test_point_cloud_from_the_images(self):
+        # The images as the point clouds a camera driver makes of them (pinhole of the CameraInfo,
+        # the pixel centre (i, j) at u = i, v = j, depth along the optical axis), in the camera's
+        # frame: the mass damping fitted from them alone, from 3 times off.
+        import rosbag
+        from sensor_msgs import point_cloud2
+        clouds = os.path.join(self.tmp, "clouds.bag")
+        with rosbag.Bag(self.recording) as source, rosbag.Bag(clouds, "w") as out:
+            info = next(m for _, m, _ in source.read_messages(topics=["/camera/depth/camera_info"]))
+            fx, cx, fy, cy = info.K[0], info.K[2], info.K[4], info.K[5]
+            for topic, msg, t in source.read_messages():
+                if topic != "/camera/depth/image":
+                    out.write(topic, msg, t)
+                    continue
+                z = np.frombuffer(bytes(msg.data), dtype="<f4").reshape(msg.height, msg.width).astype(float)
+                j, i = np.nonzero(np.isfinite(z))
+                d = z[j, i]
+                points = np.column_stack([(i - cx) * d / fx, (j - cy) * d / fy, d])
+                out.write("/camera/depth/points", point_cloud2.create_cloud_xyz32(msg.header, points), t)
+        damping = self.truth["damping.mass"]
+        status, _, err = run_fit(clouds, "--cloud", "/camera/depth/points", "--camera-info",
+                                 "/camera/depth/camera_info", "--out", os.path.join(self.tmp, "cloud"),
+                                 "--workers", 2, "--quiet", "--profile-points", 0,
+                                 "--param", "damping.mass=0.05:20", "--start", f"damping.mass={3 * damping}")
+        self.assertEqual(status, 0, err)
+        with open(os.path.join(self.tmp, "cloud", "fit.json"), encoding="utf-8") as f:
+            fitted = json.load(f)["parameters"][0]["fitted"]
+        self.assertLess(abs(fitted / damping - 1), 0.10)
+
     def test_images_that_are_not_depth(self):
         # The same recording with its images relabelled rgb8 and cut to the wrong size.
         import rosbag

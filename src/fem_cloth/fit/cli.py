@@ -1,7 +1,8 @@
 """fem_cloth_fit: the simulation's parameters fitted to a recording (docs/fitting.md).
 
   fem_cloth_fit RECORDING.bag --param KEY=LOW:HIGH [--param ...] [--start KEY=VALUE ...]
-                --out DIR [--scene BASE.yaml] [--markers TOPIC | --depth TOPIC [--camera-info TOPIC]]
+                --out DIR [--scene BASE.yaml] [--markers TOPIC | --depth TOPIC | --cloud TOPIC]
+                [--camera-info TOPIC]
                 [--method least_squares]
                 [--max-evaluations N] [--profile-points K] [--workers N | --scheduler ADDRESS]
                 [--sim PATH] [--node /fem_cloth_node] [--quiet]
@@ -53,8 +54,10 @@ def _parser():
                         "vertex); default: the recording's only observation topic")
     parser.add_argument("--depth", metavar="TOPIC", help="a depth image topic (sensor_msgs/Image 32FC1 "
                         "or 16UC1) from a camera fixed by /tf_static")
-    parser.add_argument("--camera-info", metavar="TOPIC", help="its CameraInfo (default: camera_info "
-                        "next to the image topic)")
+    parser.add_argument("--cloud", metavar="TOPIC", help="a point cloud made from a depth camera "
+                        "(PointCloud2 x, y, z in the camera's frame, fixed by /tf_static)")
+    parser.add_argument("--camera-info", metavar="TOPIC", help="the camera's CameraInfo (default: "
+                        "camera_info next to the image or cloud topic)")
     parser.add_argument("--method", choices=fit.METHODS, default="least_squares",
                         help="scipy.optimize method (default least_squares, trust-region reflective)")
     parser.add_argument("--max-evaluations", type=int, default=60, metavar="N",
@@ -243,8 +246,11 @@ def run(args):
         sim = find_program("fem_cloth_sim", args.sim)
     except BatchError as error:
         raise FitError(str(error)) from None
+    given = [o for o in ("markers", "depth", "cloud") if getattr(args, o)]
+    if len(given) > 1:
+        raise FitError(f"one kind of observation at a time: --{' and --'.join(given)} given")
     recording = Recording(args.recording, args.node, markers=args.markers, depth=args.depth,
-                          camera_info=args.camera_info)
+                          camera_info=args.camera_info, cloud=args.cloud)
     scene_path = os.path.abspath(args.scene) if args.scene else _bag_scene(recording, work)
     params = _parameters(args, _read_scene(scene_path))
     error = check_scene(sim, scene_path, [f"{p.key}={p.start!r}" for p in params])

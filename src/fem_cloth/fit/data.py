@@ -86,7 +86,8 @@ def read_markers(msg, topic, index, stamp_ns):
     missing = [n for n in ("x", "y", "z", "vertex") if _cloud_field(msg, n) is None]
     if missing:
         raise FitError(f"{_where(topic, index, stamp_ns)}: a marker cloud needs the fields x, y, z and "
-                       f"vertex (the mesh vertex each marker sits on); missing: {', '.join(missing)}")
+                       f"vertex (the mesh vertex each marker sits on); missing: {', '.join(missing)} "
+                       f"(a cloud from a depth camera: --cloud TOPIC with its --camera-info)")
     rows = list(point_cloud2.read_points(msg, field_names=("x", "y", "z", "vertex"), skip_nans=False))
     data = np.array(rows, dtype=np.float64).reshape(-1, 4)
     keep = np.all(np.isfinite(data[:, :3]), axis=1)  # a marker the tracker lost in this frame
@@ -156,7 +157,7 @@ class Recording:
     """A recording: its path, the node whose topics it holds, its fixed frames and the observations
     found on the topic(s) given (or found by their type)."""
 
-    def __init__(self, path, node=NODE, markers=None, depth=None, camera_info=None):
+    def __init__(self, path, node=NODE, markers=None, depth=None, camera_info=None, cloud=None):
         self.path, self.node = path, node.rstrip("/")
         with _open(path) as bag:
             topics = bag.get_type_and_topic_info()[1]
@@ -170,11 +171,15 @@ class Recording:
             for _, msg, _ in bag.read_messages(topics=[f"{self.node}/mesh"]):
                 self.mesh_vertices = len(msg.vertices)
                 break
-            if markers is None and depth is None:
+            if markers is None and depth is None and cloud is None:
                 markers, depth = self._find(topics)
-            self._refuse_exact_cloud(markers or depth)
-            self.observations = (self._read_markers(bag, topics, markers) if markers is not None
-                                 else self._read_depth(bag, topics, depth, camera_info))
+            self._refuse_exact_cloud(markers or depth or cloud)
+            if markers is not None:
+                self.observations = self._read_markers(bag, topics, markers)
+            else:
+                from fem_cloth.fit import depth as camera
+                self.observations = (camera.read_depth(self, bag, topics, depth, camera_info) if depth
+                                     else camera.read_cloud(self, bag, topics, cloud, camera_info))
 
     def _find(self, topics):
         """The observation topic when none is given: the one marker cloud or depth image topic."""
@@ -223,7 +228,3 @@ class Recording:
         if self.mesh_vertices is not None:
             markers.check_vertices(self.mesh_vertices, f"the recording ({self.node}/mesh)")
         return markers
-
-    def _read_depth(self, bag, topics, topic, camera_info):
-        from fem_cloth.fit.depth import read_depth
-        return read_depth(self, bag, topics, topic, camera_info)

@@ -1,6 +1,6 @@
 """Depth-camera observations for fem_cloth_fit (docs/fitting.md): a sensor_msgs/Image (32FC1 metres
-or 16UC1 millimetres, NaN or 0 where nothing is seen) with its CameraInfo, from a camera fixed in
-the simulation frame (/tf_static).
+or 16UC1 millimetres, NaN or 0 where nothing is seen) with its CameraInfo, or a PointCloud2 made
+from one (in the camera's frame), from a camera fixed in the simulation frame (/tf_static).
 
 The observed pixels are back-projected to points (pinhole, REP-118 depth along the optical axis,
 the pixel centre (i, j) at u = i, v = j as docs/perception.md gives it). A simulated run is seen
@@ -112,18 +112,45 @@ def read_image(msg, topic, index, stamp):
     return image
 
 
-def read_depth(recording, bag, topics, topic, camera_info):
+def _camera_and_mesh(recording, bag, topics, topic, camera_info):
+    """The CameraInfo of the camera that saw `topic`, and the recording's mesh triangles."""
     info_topic = camera_info or topic.rsplit("/", 1)[0] + "/camera_info"
     infos = [msg for _, msg, _ in bag.read_messages(topics=[info_topic])] if info_topic in topics else []
     if not infos:
-        raise FitError(f"{topic}: no CameraInfo on {info_topic} (give it with --camera-info)")
-    camera = Camera(infos[0], info_topic)
+        raise FitError(f"{topic}: no CameraInfo on {info_topic} (give it with --camera-info): the "
+                       f"simulated cloth is seen from the same camera")
     triangles = None
     for _, msg, _ in bag.read_messages(topics=[f"{recording.node}/mesh"]):
         triangles = np.array([t.vertex_indices for t in msg.triangles], dtype=np.int64)
     if triangles is None:
-        raise FitError(f"the recording '{recording.path}' has no {recording.node}/mesh: a depth image "
-                       f"is compared with the mesh's triangles")
+        raise FitError(f"the recording '{recording.path}' has no {recording.node}/mesh: a camera's "
+                       f"points are compared with the mesh's triangles")
+    return Camera(infos[0], info_topic), info_topic, triangles
+
+
+def read_cloud(recording, bag, topics, topic, camera_info):
+    """A point cloud made from a depth camera (PointCloud2 with x, y, z in the camera's frame, no
+    correspondence to the mesh): every k-th finite point, k the same for every frame."""
+    from sensor_msgs import point_cloud2
+    camera, info_topic, triangles = _camera_and_mesh(recording, bag, topics, topic, camera_info)
+    stamps, clouds = [], []
+    for index, msg, stamp in recording._messages(bag, topics, topic, "sensor_msgs/PointCloud2"):
+        if msg.header.frame_id.lstrip("/") != camera.frame_id:
+            raise FitError(f"{_where(topic, index, stamp)}: frame '{msg.header.frame_id}', but the camera's "
+                           f"(CameraInfo on {info_topic}) is '{camera.frame_id}'")
+        points = np.array(list(point_cloud2.read_points(msg, field_names=("x", "y", "z"), skip_nans=True)),
+                          dtype=np.float64).reshape(-1, 3)
+        stamps.append(stamp)
+        clouds.append(points)
+    largest = max(len(c) for c in clouds)
+    if largest == 0:
+        raise FitError(f"the recording '{recording.path}' has no observations: every cloud on {topic} is empty")
+    step = -(-largest // POINTS_PER_FRAME)
+    return DepthFrames(topic, camera, np.array(stamps, dtype=np.int64), [c[::step] for c in clouds], triangles)
+
+
+def read_depth(recording, bag, topics, topic, camera_info):
+    camera, info_topic, triangles = _camera_and_mesh(recording, bag, topics, topic, camera_info)
     stamps, points = [], []
     stride = 1
     for index, msg, stamp in recording._messages(bag, topics, topic, "sensor_msgs/Image"):
