@@ -95,6 +95,19 @@ class Errors(unittest.TestCase):
         self.assertEqual(status, 2)
         self.assertIn("parameter 'material.poisson_ratio': bound 0.6", err)
 
+    def test_bad_options(self):
+        status, _, err = self.fit(RECORDING, "--timeout", "0")
+        self.assertEqual(status, 2)
+        self.assertIn("--timeout must be above 0 s, got 0.0", err)
+        status, _, err = self.fit(RECORDING, "--markers", "/mocap/markers", "--depth", "/camera/depth/image")
+        self.assertEqual(status, 2)
+        self.assertIn("one kind of observation at a time: --markers and --depth given", err)
+        taken = os.path.join(self.tmp, "a_file")
+        open(taken, "w").close()
+        status, _, err = run_fit(RECORDING, "--out", taken, "--param", "damping.mass=0.1:10")
+        self.assertEqual(status, 2)
+        self.assertIn(f"cannot write the results to '{taken}'", err)
+
     def test_exact_vertex_cloud_is_not_an_observation(self):
         status, _, err = self.fit(RECORDING, "--markers", f"{NODE}/points")
         self.assertEqual(status, 2)

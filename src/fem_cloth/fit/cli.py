@@ -352,13 +352,20 @@ def _summary(report, say, noise):
 
 def main(argv=None):
     args = _parser().parse_args(argv)
-    if args.max_evaluations < 1:
-        print(f"{PROGRAM}: --max-evaluations must be >= 1", file=sys.stderr)
-        return 2
+    for option, value, ok, wanted in (("--max-evaluations", args.max_evaluations, lambda v: v >= 1, ">= 1"),
+                                      ("--workers", args.workers, lambda v: v >= 1, ">= 1"),
+                                      ("--profile-points", args.profile_points, lambda v: v >= 0, ">= 0"),
+                                      ("--timeout", args.timeout, lambda v: v > 0, "above 0 s")):
+        if value is not None and not ok(value):
+            print(f"{PROGRAM}: {option} must be {wanted}, got {value}", file=sys.stderr)
+            return 2
     try:
         return run(args)
     except FitError as error:
         print(f"{PROGRAM}: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:  # the results folder: not a folder, not writable
+        print(f"{PROGRAM}: cannot write the results to '{args.out}': {error.strerror}", file=sys.stderr)
         return 2
     except RunnerError as error:
         print(f"{PROGRAM}: {error}", file=sys.stderr)
