@@ -255,7 +255,9 @@ def run(args):
     params = _parameters(args, _read_scene(scene_path))
     error = check_scene(sim, scene_path, [f"{p.key}={p.start!r}" for p in params])
     if error:
-        raise FitError(f"the base scene with the start values: {error}")
+        starts = ", ".join(f"{p.key} = {p.start:g}" + (f" (parameter '{p.name}')" if p.name != p.key else "")
+                           for p in params)
+        raise FitError(f"the base scene with the start values ({starts}): {error}")
     for p in params:
         for bound in (p.low, p.high):
             error = check_scene(sim, scene_path, [f"{p.key}={bound!r}"])
@@ -339,7 +341,7 @@ def _write(out, report, scene_path, sim, params, slices):
 
 
 def _summary(report, say, noise):
-    say(f"loss ({report['loss']}): {report['loss_before']:.4g} m before, {report['loss_after']:.4g} m "
+    say(f"loss ({report['loss'].replace(' (m)', '')}): {report['loss_before']:.4g} m before, {report['loss_after']:.4g} m "
         f"after; {report['candidates_total']} candidate runs in {report['wall_s']:.0f} s on "
         f"{report['workers']} workers (load average {report['load_average']})")
     for e in report["parameters"]:
