@@ -179,6 +179,23 @@ class SyntheticRecovery(Recovery, unittest.TestCase):
         self.assertEqual(scene["damping"]["mass"], self.by_key["damping.mass"]["in_scene"])
 
 
+class NotConverged(unittest.TestCase):
+    def test_an_optimiser_stopped_by_the_limit_says_so(self):
+        # One least-squares iteration from 3 times off cannot reach the minimum: the run says
+        # that its values are the best candidate's, and fit.json records it.
+        tmp = tempfile.mkdtemp(prefix="test_fit-limit-")
+        try:
+            status, _, err = run_fit(RECORDING, "--out", tmp, "--workers", 2, "--quiet", "--profile-points", 0,
+                                     "--max-evaluations", 2, "--param", "damping.mass=0.05:20",
+                                     "--start", "damping.mass=0.3333")
+            self.assertEqual(status, 0, err)
+            self.assertIn("least_squares did not converge", err)
+            with open(os.path.join(tmp, "fit.json"), encoding="utf-8") as f:
+                self.assertIs(json.load(f)["converged"], False)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
 class DepthGeometry(unittest.TestCase):
     """The depth loss's geometry against hand calculations."""
 

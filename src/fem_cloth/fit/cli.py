@@ -280,7 +280,11 @@ def run(args):
                            f"(see {os.path.join(work, '000001', 'log.txt')})")
         loss_before = problem.loss_of(start_residuals)
         say(f"start: {', '.join(f'{p.key} {_fmt(p.start)}' for p in params)}: loss {loss_before:.4g} m")
-        u_opt = fit.optimise(problem, args.method, args.max_evaluations, say)
+        u_opt, converged, message = fit.optimise(problem, args.method, args.max_evaluations, say)
+        if not converged:
+            print(f"{PROGRAM}: warning: {args.method} did not converge ({message}; --max-evaluations "
+                  f"{args.max_evaluations}): the values below are the best candidate's, not a minimum's, "
+                  f"and their intervals and verdicts assume one", file=sys.stderr, flush=True)
         # The best candidate run, whichever method (an optimiser's last point need not be it).
         best = min(problem.history, key=lambda h: h[2])
         u_best = np.array([p.to_u(v) for p, v in zip(params, best[1])])
@@ -295,6 +299,7 @@ def run(args):
                   "frames": len(obs), "observed_points": obs.count(), "method": args.method,
                   "loss": obs.loss_name, "loss_before": loss_before, "loss_after": loss_after,
                   "candidates": optimiser_evaluations, "workers": runner.workers,
+                  "converged": converged, "optimiser_message": str(message),
                   "parameters": []}
         for p, u, v in zip(params, u_best, verdicts):
             fitted = p.from_u(u)

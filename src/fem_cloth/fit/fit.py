@@ -224,7 +224,8 @@ class Problem:
 
 
 def optimise(problem, method, max_evaluations, say):
-    """Runs the optimiser; returns the best point found (search coordinates)."""
+    """Runs the optimiser; returns the point it ended at (search coordinates), whether it
+    converged, and scipy's message."""
     from scipy import optimize
     params = problem.params
     u0 = np.array([p.to_u(p.start) for p in params])
@@ -235,7 +236,7 @@ def optimise(problem, method, max_evaluations, say):
             lambda u: problem.evaluate([u])[0], u0, jac=problem.jacobian, bounds=(lower, upper),
             method="trf", x_scale=1.0, xtol=1e-3, ftol=1e-6, gtol=1e-8,
             max_nfev=max(1, max_evaluations // (len(params) + 1)))
-        return result.x
+        return result.x, result.status > 0, result.message
 
     def loss(u):
         return problem.loss_of(problem.evaluate([u])[0]) ** 2
@@ -243,7 +244,7 @@ def optimise(problem, method, max_evaluations, say):
     if method == "nelder_mead":
         result = optimize.minimize(loss, u0, method="Nelder-Mead", bounds=bounds,
                                    options={"maxfev": max_evaluations, "xatol": 1e-3, "fatol": 1e-12})
-        return result.x
+        return result.x, bool(result.success), result.message
 
     def population_map(function, points):
         points = list(points)
@@ -254,7 +255,7 @@ def optimise(problem, method, max_evaluations, say):
     result = optimize.differential_evolution(
         loss, bounds, x0=u0, popsize=popsize, seed=0, tol=1e-3, polish=False, updating="deferred",
         workers=population_map, maxiter=max(1, max_evaluations // (popsize * len(params)) - 1))
-    return result.x
+    return result.x, bool(result.success), result.message
 
 
 def identifiability(problem, u, jacobian, residuals):
