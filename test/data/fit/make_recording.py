@@ -41,6 +41,11 @@ def truth():
         return yaml.safe_load(f)
 
 
+def truth_values(spec):
+    """The fitted parameters' true values: truth.yaml's scene keys outside its sections."""
+    return {k: v for k, v in spec.items() if k not in ("markers", "scene", "depth")}
+
+
 def simulate(sim, commands, values, out):
     argv = [sim, "--commands", commands, "--quiet", "--out", out]
     for key, value in values.items():
@@ -133,7 +138,7 @@ def depth_recording(sim, render, out, tmp):
     from sensor_msgs.msg import CameraInfo, Image
     spec = truth()
     d = spec["depth"]
-    values = {k: v for k, v in spec.items() if k not in ("markers", "scene", "depth")}
+    values = truth_values(spec)
     commands = os.path.join(tmp, "commands.bag")
     write_commands(sim, commands, spec["scene"], os.path.join(tmp, "scene.yaml"))
     run = os.path.join(tmp, "truth.bag")
@@ -199,7 +204,7 @@ def main():
     import rosbag
     spec = truth()
     m = spec["markers"]
-    values = {k: v for k, v in spec.items() if k not in ("markers", "scene")}
+    values = truth_values(spec)
     rng = np.random.default_rng(m["seed"])
     sim = find_program("fem_cloth_sim", args.sim)
     with tempfile.TemporaryDirectory() as tmp:
