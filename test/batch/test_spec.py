@@ -208,6 +208,20 @@ class TestRefusals(SpecTestCase):
             Spec(path)
         self.assertIn("no such file 'missing.yaml'", str(caught.exception))
 
+    def test_commands_bag(self):
+        # Issue 33: episodes driven by a recorded run's commands; the bag is relative to the spec,
+        # and every episode's fem_cloth_sim command replays it on the episode's scene.
+        from fem_cloth.batch.batch import EpisodeFiles
+        self.refused("commands: missing.bag\n", "commands: no such file 'missing.bag'")
+        self.refused("commands: [a.bag]\n", "commands must be the path of a bag")
+        open(os.path.join(self.folder, "run.bag"), "w").close()
+        spec = self.spec("commands: run.bag\n")
+        self.assertEqual(spec.commands, os.path.join(self.folder, "run.bag"))
+        files = EpisodeFiles(os.path.join(self.folder, "episodes", "000000"), "none")
+        argv = files.command("fem_cloth_sim", "scene.yaml", None, spec.commands)
+        self.assertEqual(argv[:5], ["fem_cloth_sim", "--commands", spec.commands, "--scene", "scene.yaml"])
+        self.assertIsNone(self.spec("").commands)
+
     def test_huge_batches_are_counted_before_they_are_built(self):
         # Issue 31: episodes 1e8 and range [3, 1e9, 1] were built in memory until killed. Refused
         # at once, naming the count (999999997 = 1e9 - 3 values) and the limit.

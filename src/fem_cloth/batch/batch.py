@@ -152,8 +152,9 @@ class EpisodeFiles:
             return ["--no-output"]
         return ["--out", self.outputs[0] if self.output == "bag" else self.folder]
 
-    def command(self, sim, scene, every):
-        argv = [sim, "--scene", scene, "--quiet", "--summary-json", self.summary] + self.out_arguments()
+    def command(self, sim, scene, every, commands=None):
+        argv = [sim] + (["--commands", commands] if commands else [])
+        argv += ["--scene", scene, "--quiet", "--summary-json", self.summary] + self.out_arguments()
         return argv + (["--every", str(every)] if every else [])
 
     def complete(self):
@@ -194,7 +195,9 @@ class Batch:
         self.manifest = {"spec": spec.path, "scene": os.path.abspath(spec.scene),
                          "scene_sha256": sha256_file(spec.scene), "sim": sim,
                          "sim_sha256": program_sha256(sim), "set": spec.fixed_overrides(),
-                         "output": spec.output, "every": spec.every, "columns": self.columns}
+                         "output": spec.output, "every": spec.every, "columns": self.columns,
+                         "commands": spec.commands,
+                         "commands_sha256": sha256_file(spec.commands) if spec.commands else None}
 
     def files(self, index):
         return EpisodeFiles(os.path.join(self.out, "episodes", f"{index:06d}"), self.spec.output)
@@ -210,11 +213,13 @@ class Batch:
                 earlier = json.load(f)
         except (OSError, ValueError):
             earlier = {}
-        changed = [k for k in ("scene_sha256", "sim_sha256", "set", "output", "every", "columns")
+        changed = [k for k in ("scene_sha256", "sim_sha256", "set", "output", "every", "columns",
+                               "commands_sha256")
                    if earlier.get(k) != self.manifest[k]]
         if changed:
             what = {"scene_sha256": "the base scene", "sim_sha256": "fem_cloth_sim (or its libraries)", "set": "set",
-                    "output": "output", "every": "every", "columns": "the varied keys"}
+                    "output": "output", "every": "every", "columns": "the varied keys",
+                    "commands_sha256": "the commands bag"}
             self.say(f"resume: {', '.join(what[k] for k in changed)} changed since {self.index_path} "
                      f"was written: every episode runs again")
             return {}
@@ -310,7 +315,7 @@ class Batch:
         tasks = []
         for episode in todo:
             files = self.files(episode.index)
-            task = command_task(f"episode {episode.index}", files.command(self.sim, files.scene, self.spec.every),
+            task = command_task(f"episode {episode.index}", files.command(self.sim, files.scene, self.spec.every, self.spec.commands),
                                 threads=1, timeout=self.spec.timeout, log=files.log, summary=files.summary)
             by_key[task["key"]] = episode
             tasks.append(task)
@@ -362,7 +367,8 @@ def verify(index_path, runner, sample=None, seed=0, threads=(1, 2), sim=None, re
                                  manifest["output"])
             os.makedirs(files.folder, exist_ok=True)
             task = command_task(f"episode {row['episode']} threads {n}",
-                                files.command(program, os.path.join(out, row["scene"]), manifest.get("every")),
+                                files.command(program, os.path.join(out, row["scene"]), manifest.get("every"),
+                                              manifest.get("commands")),
                                 threads=n, summary=files.summary, remove_after=[files.folder])
             tasks.append(task)
             expected[task["key"]] = (row, n)

@@ -21,7 +21,7 @@ import time
 
 from fem_cloth.batch.batch import Batch, BatchError, find_program, locked, verify
 from fem_cloth.batch.report import run_report
-from fem_cloth.batch.runner import Runner, RunnerError, default_workers
+from fem_cloth.batch.runner import Runner, RunnerError, default_workers, load_average as _load
 from fem_cloth.batch.spec import DEFAULT_MAX_EPISODES, Spec, SpecError
 
 PROGRAM = "fem_cloth_batch"
@@ -29,14 +29,6 @@ PROGRAM = "fem_cloth_batch"
 
 def _say(text):
     print(f"{PROGRAM}: {text}", flush=True)
-
-
-def _load():
-    """The load average (1, 5, 15 min): throughput figures mean little without it."""
-    try:
-        return " ".join(f"{x:.2f}" for x in os.getloadavg())
-    except OSError:
-        return "unknown"
 
 
 def _count(n, what):

@@ -29,6 +29,14 @@ def _lost(task, error):
             "summary": None, "error": f"the task failed on its worker: {type(error).__name__}: {error}"}
 
 
+def load_average():
+    """The load average (1, 5, 15 min): throughput figures mean little without it."""
+    try:
+        return " ".join(f"{x:.2f}" for x in os.getloadavg())
+    except OSError:
+        return "unknown"
+
+
 def default_workers():
     try:
         return len(os.sched_getaffinity(0))

@@ -19,7 +19,7 @@ import re
 
 import yaml
 
-KNOWN_KEYS = ("scene", "episodes", "seed", "set", "sweep", "random", "output", "every", "timeout")
+KNOWN_KEYS = ("scene", "episodes", "seed", "set", "sweep", "random", "output", "every", "timeout", "commands")
 OUTPUTS = ("bag", "csv", "none")
 DISTRIBUTIONS = ("uniform", "loguniform", "normal", "integer", "choice")
 SWEEP_FORMS = ("linspace", "logspace", "range")
@@ -314,6 +314,15 @@ class Spec:
         self.scene = os.path.join(os.path.dirname(self.path), data["scene"])
         if not os.path.isfile(self.scene):
             raise SpecError(f"{self._where('scene')}: no such file '{data['scene']}'")
+        # A recorded run whose commands (pins, grasps, forces, tf) drive every episode
+        # (fem_cloth_sim --commands BAG --scene EPISODE_SCENE).
+        self.commands = data.get("commands")
+        if self.commands is not None:
+            if not isinstance(self.commands, str) or not self.commands:
+                raise SpecError(f"{self._where('commands')} must be the path of a bag")
+            self.commands = os.path.join(os.path.dirname(self.path), self.commands)
+            if not os.path.isfile(self.commands):
+                raise SpecError(f"{self._where('commands')}: no such file '{data['commands']}'")
         self.episodes = self._integer(data, "episodes", 1, minimum=1)
         self.seed = self._integer(data, "seed", 0, minimum=0)
         self.every = self._integer(data, "every", None, minimum=1)
