@@ -409,9 +409,10 @@ TEST(SceneYaml, ShapesYamlAllowsAndScenesDoNot) {
   expectParseError(std::string(kBase) + "obstacles: [{type: [plane]}]\n", {"obstacles[0].type"});
   expectParseError(std::string(kBase) + "contact: {stiffness: [auto]}\n", {"contact.stiffness", "a list"});
   expectParseError(variant("gravity", "{z: -9.81}"), {"gravity", "list of 2 or 3 numbers", "a map"});
-  // A document that is not a map at all.
+  // A document that is not a map at all. A text is described by its length, never echoed (it may
+  // be a file that is not a scene: issue 31, part 4); 'just words' has 10 characters.
   expectParseError("[1, 2]\n", {"scene", "map", "a list"});
-  expectParseError("just words\n", {"scene", "map", "'just words'"});
+  expectParseError("just words\n", {"scene", "map", "a text of 10 characters", "not a scene"});
 }
 
 // A key given without a value (`rows:` or `rows: ~`) is refused, not silently given its default
