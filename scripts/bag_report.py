@@ -8,7 +8,9 @@ and writes to DIR:
   snapshots.png  N views of the cloth over the run, shaded and coloured by strain
                  (largest principal stretch - 1 of each triangle, computed here from the
                  recorded rest mesh and positions)
-  energy.png     kinetic, strain, gravity, total and the energy-balance error over time
+  energy.png     kinetic, strain, gravity, total, pin and contact work and the energy-balance
+                 error over time (balance error = total - the five works + dissipated - initial
+                 total, every term from ClothEnergy)
 
 Runs with Debian's /usr/bin/python3 (python3-rosbag, python3-matplotlib, python3-numpy).
 Exit status: 0; 2 on bad input (a missing, unreadable or damaged bag, one without a mesh or
@@ -146,6 +148,23 @@ def render(mesh, states, out, count, strain_max=0.05):
     return path
 
 
+# The work terms of ClothEnergy's balance. A bag recorded before contact_work, air_work,
+# live_work and initial_total were in the message (its energies were then read with the
+# definition stored in the bag) has none of them: they read as 0 there.
+WORKS = ("external_work", "pin_work", "contact_work", "air_work", "live_work")
+
+
+def work(e, field):
+    return getattr(e, field, 0.0)
+
+
+def recomputed_balance(e):
+    """ClothEnergy's balance error from its own fields (None for a message without initial_total)."""
+    if not hasattr(e, "initial_total"):
+        return None
+    return e.total - sum(work(e, w) for w in WORKS) + e.dissipated - e.initial_total
+
+
 def plot_energy(energies, out):
     import matplotlib
     matplotlib.use("Agg")
@@ -155,12 +174,12 @@ def plot_energy(energies, out):
     t = np.array([e.header.stamp.to_sec() - t0 for e in energies])
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for field, style in [("kinetic", "-"), ("strain", "-"), ("gravity", "-"),
-                         ("total", "k-"), ("pin_work", "--"), ("dissipated", ":"),
-                         ("balance_error", "r-")]:
-        ax.plot(t, [getattr(e, field) for e in energies], style, label=field.replace("_", " "))
+                         ("total", "k-"), ("pin_work", "--"), ("contact_work", "--"),
+                         ("dissipated", ":"), ("balance_error", "r-")]:
+        ax.plot(t, [work(e, field) for e in energies], style, label=field.replace("_", " "))
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("energy (J)")
-    ax.set_title("Energies; balance error = total - external work - pin work + dissipated - initial")
+    ax.set_title("Energies; balance error = total - works + dissipated - initial total", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
     path = os.path.join(out, "energy.png")
@@ -199,9 +218,15 @@ def main():
     if energies:
         for label, e in (("start", energies[0]), ("end", energies[-1])):
             print(f"energy {label:5s} kinetic {e.kinetic:.4g} J, strain {e.strain:.4g} J, "
-                  f"gravity {e.gravity:.4g} J, total {e.total:.4g} J; "
-                  f"pin work {e.pin_work:.4g} J, dissipated {e.dissipated:.4g} J, "
-                  f"balance error {e.balance_error:.3g} J")
+                  f"gravity {e.gravity:.4g} J, total {e.total:.4g} J; work: "
+                  + ", ".join(f"{w.replace('_work', '')} {work(e, w):.4g} J" for w in WORKS)
+                  + f"; dissipated {e.dissipated:.4g} J, balance error {e.balance_error:.3g} J"
+                  + ("" if recomputed_balance(e) is None
+                     else f" (from the terms above: {recomputed_balance(e):.3g} J)"))
+        if not hasattr(energies[-1], "initial_total"):
+            print("energy:       recorded with the ClothEnergy of before contact, air and live-change work "
+                  "were in it: those works are missing from the lines above (re-simulate the bag with "
+                  "fem_cloth_sim --commands --out to get them)")
         print(f"wrote:        {plot_energy(energies, args.out)}")
     print(f"wrote:        {render(mesh, states, args.out, max(1, args.snapshots))}")
 
