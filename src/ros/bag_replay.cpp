@@ -192,7 +192,7 @@ Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene
   FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
   const double end = replay.origin.toSec() + duration;
   if (!(secondsBetween(replay.origin, replay.reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
-    return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
+    return Error{what + ": the run would end at ROS time " + secondsText(end) + " s, beyond " +
                  (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
   }
   return duration;
