@@ -442,7 +442,11 @@ TEST(StartUp, ParametersOnceTakenSilentlyStopItWithExitTwoNamingThem) {
            {"fast", "_real_time_factor:=1e308", "parameter ~real_time_factor must be between 0.001 and 1000"},
            {"slow", "_real_time_factor:=0.0001", "parameter ~real_time_factor must be between 0.001 and 1000"},
            {"camera", "_camera/frame_id:=world" + camera, "parameter ~camera/frame_id is 'world', the simulation frame"},
-           {"blank", "'_camera/frame_id:=my camera'" + camera, "parameter ~camera/frame_id must be a frame name without blanks"}}) {
+           {"blank", "'_camera/frame_id:=my camera'" + camera, "parameter ~camera/frame_id must be a frame name without blanks"},
+           {"mode", "_replay_mode:=fast", "parameter ~replay_mode must be play or drive, got 'fast'"},
+           {"drive", "_replay_mode:=drive", "parameter ~replay_mode drive replays a recording: give it in ~replay_bag"},
+           {"driven", "_replay_mode:=drive _replay_bag:=/nonexistent.bag _time_mode:=real_time",
+            "~time_mode must be fast (or not given), got 'real_time'"}}) {
     std::string output;
     EXPECT_EQ(runNode(name, argument, &output), 2) << argument << ": " << output;
     EXPECT_TRUE(contains(output, expected)) << argument << ": " << output;
