@@ -8,7 +8,9 @@ and writes to DIR:
   snapshots.png  N views of the cloth over the run, shaded and coloured by strain
                  (largest principal stretch - 1 of each triangle, computed here from the
                  recorded rest mesh and positions)
-  energy.png     kinetic, strain, gravity, total and the energy-balance error over time
+  energy.png     kinetic, strain, gravity, total, pin and contact work and the energy-balance
+                 error over time (balance error = total - the five works + dissipated - initial
+                 total, every term from ClothEnergy)
 
 Runs with Debian's /usr/bin/python3 (python3-rosbag, python3-matplotlib, python3-numpy).
 Exit status: 0; 2 on bad input (a missing, unreadable or damaged bag, one without a mesh or
@@ -21,6 +23,7 @@ import contextlib
 import io
 import os
 import sys
+import types
 
 try:
     import numpy as np
@@ -32,6 +35,31 @@ except ImportError as e:  # pragma: no cover - depends on the machine
 
 class BadInput(Exception):
     """A problem with the bag or the options: exit status 2."""
+
+
+# The work terms of ClothEnergy's balance. A bag recorded before contact_work, air_work,
+# live_work and initial_total were in the message (its energies are read with the definition
+# stored in the bag) has none of them: the works read as 0 there, initial_total as None.
+WORKS = ("external_work", "pin_work", "contact_work", "air_work", "live_work")
+NEWER = ("contact_work", "air_work", "live_work")
+
+
+def energy_record(msg):
+    """The fields of a ClothEnergy this report uses, read while the bag is (a definition without
+    one of the older fields is a damaged bag: bad input)."""
+    e = {f: getattr(msg, f) for f in ("kinetic", "strain", "gravity", "total", "external_work",
+                                      "pin_work", "dissipated", "balance_error")}
+    e.update({f: getattr(msg, f, 0.0) for f in NEWER})
+    e["initial_total"] = getattr(msg, "initial_total", None)
+    e["stamp"] = msg.header.stamp.to_sec()
+    return types.SimpleNamespace(**e)
+
+
+def recomputed_balance(e):
+    """ClothEnergy's balance error from its own fields (None for a message without initial_total)."""
+    if e.initial_total is None:
+        return None
+    return e.total - sum(getattr(e, w) for w in WORKS) + e.dissipated - e.initial_total
 
 
 def read_bag(path, node):
@@ -47,9 +75,9 @@ def read_bag(path, node):
                     states.append((msg.header.stamp.to_sec(), msg.step,
                                    np.array([[p.x, p.y, p.z] for p in msg.positions], dtype=float)))
                 elif topic.endswith("/energy"):
-                    energies.append(msg)
+                    energies.append(energy_record(msg))
                 elif topic.endswith("/stats"):
-                    stats.append(msg)
+                    stats.append((msg.real_time_factor, msg.wall_time))
     except Exception as e:  # noqa: BLE001 - rosbag, genpy, struct and lz4 errors of a damaged bag
         raise BadInput(f"cannot read bag '{path}': {type(e).__name__}: {e}")
     return mesh, states, energies, stats
@@ -151,16 +179,16 @@ def plot_energy(energies, out):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    t0 = energies[0].header.stamp.to_sec()
-    t = np.array([e.header.stamp.to_sec() - t0 for e in energies])
+    t0 = energies[0].stamp
+    t = np.array([e.stamp - t0 for e in energies])
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for field, style in [("kinetic", "-"), ("strain", "-"), ("gravity", "-"),
-                         ("total", "k-"), ("pin_work", "--"), ("dissipated", ":"),
-                         ("balance_error", "r-")]:
+                         ("total", "k-"), ("pin_work", "--"), ("contact_work", "--"),
+                         ("dissipated", ":"), ("balance_error", "r-")]:
         ax.plot(t, [getattr(e, field) for e in energies], style, label=field.replace("_", " "))
     ax.set_xlabel("simulated time (s)")
     ax.set_ylabel("energy (J)")
-    ax.set_title("Energies; balance error = total - external work - pin work + dissipated - initial")
+    ax.set_title("Energies; balance error = total - works + dissipated - initial total", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
     path = os.path.join(out, "energy.png")
@@ -188,8 +216,8 @@ def main():
         raise BadInput(f"{args.bag} has no {args.node}/mesh or {args.node}/state")
     check_run(args.bag, mesh, states)
     duration = states[-1][0] - states[0][0]
-    rtf = [s.real_time_factor for s in stats if s.real_time_factor > 0]
-    step_ms = [1e3 * s.wall_time for s in stats if s.wall_time > 0]
+    rtf = [factor for factor, _ in stats if factor > 0]
+    step_ms = [1e3 * wall for _, wall in stats if wall > 0]
     print(f"cloth:        {len(mesh.vertices)} vertices, {len(mesh.triangles)} triangles")
     print(f"duration:     {duration:.2f} s simulated, {len(states)} states "
           f"(steps {states[0][1]} to {states[-1][1]})")
@@ -199,9 +227,15 @@ def main():
     if energies:
         for label, e in (("start", energies[0]), ("end", energies[-1])):
             print(f"energy {label:5s} kinetic {e.kinetic:.4g} J, strain {e.strain:.4g} J, "
-                  f"gravity {e.gravity:.4g} J, total {e.total:.4g} J; "
-                  f"pin work {e.pin_work:.4g} J, dissipated {e.dissipated:.4g} J, "
-                  f"balance error {e.balance_error:.3g} J")
+                  f"gravity {e.gravity:.4g} J, total {e.total:.4g} J; work: "
+                  + ", ".join(f"{w.replace('_work', '')} {getattr(e, w):.4g} J" for w in WORKS)
+                  + f"; dissipated {e.dissipated:.4g} J, balance error {e.balance_error:.3g} J"
+                  + ("" if recomputed_balance(e) is None
+                     else f" (from the terms above: {recomputed_balance(e):.3g} J)"))
+        if energies[-1].initial_total is None:
+            print("energy:       recorded with the ClothEnergy of before contact, air and live-change work "
+                  "were in it: those works are missing from the lines above (re-simulate the bag with "
+                  "fem_cloth_sim --commands --out to get them)")
         print(f"wrote:        {plot_energy(energies, args.out)}")
     print(f"wrote:        {render(mesh, states, args.out, max(1, args.snapshots))}")
 

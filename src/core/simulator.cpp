@@ -515,9 +515,9 @@ EnergyReport Simulator::energies() {
   e.dissipated = book_.dissipated;
   e.liveWork = book_.liveWork;
   e.total = e.kinetic + e.strain + e.bending + e.gravity;
+  e.initialTotal = initialTotal_;
   e.balanceError = e.total - e.externalWork - e.pinWork - e.contactWork - e.airWork - e.liveWork +
-                   e.dissipated -
-                   initialTotal_;
+                   e.dissipated - e.initialTotal;
   e.numericalDissipation = book_.numerical;
   e.created = book_.created;
   e.energyScale = runEnergyScale(EnergyStep{});

@@ -77,7 +77,7 @@ double recordedDt(const RecordedRun& run, double replayDt) {
 // bag (or 0 without one). Every stamp the replay compares with it lies within kMaxRecordingSpan
 // of the start of the recording (readRun), so keeping its origin there too keeps their
 // differences within what ros::Duration holds.
-Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) {
+Expected<Timeline> timelineOf(const RecordedRun* run, double dt) {
   if (run == nullptr) return Timeline(ros::Time(0));
   if (run->states.empty()) return Timeline(run->begin);
   const std::optional<Timeline> timeline = runTimeline(*run, recordedDt(*run, dt));
@@ -102,9 +102,9 @@ struct ReplaySettings {
 
 // What the replay of `run` takes from it, counting its commands per topic in `report` (the
 // CommandFeed submits them).
-ReplaySettings replaySettings(const RecordedRun* run, const SimulationDriver& driver, double dt, BagRunReport& report) {
+ReplaySettings replaySettings(const RecordedRun* run, const Timeline& timeline, double dt, BagRunReport& report) {
   ReplaySettings settings;
-  settings.origin = driver.timeline().origin();
+  settings.origin = timeline.origin();
   if (run == nullptr) return settings;
   settings.reference = run->begin;
   report.exactCommands = run->exactCommands;
@@ -174,8 +174,8 @@ class CommandFeed {
 // How long the run lasts (s): --duration, else up to the last recorded state, the last command
 // + 1 s, or the scene's duration; within kMaxSteps steps and, stamped from the origin, within
 // the recording's span and ros::Time.
-Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene, const ReplaySettings& replay) {
-  double duration = options.duration;
+Expected<double> replayDuration(double wanted, const Scene& scene, const ReplaySettings& replay) {
+  double duration = wanted;
   std::string what = "--duration";
   if (!(duration > 0.0)) {
     if (replay.lastRecorded > 0.0) {
@@ -192,7 +192,7 @@ Expected<double> replayDuration(const BagRunOptions& options, const Scene& scene
   FEM_CLOTH_CHECK(checkStepCount(duration, scene.dt, scene.substeps, what));
   const double end = replay.origin.toSec() + duration;
   if (!(secondsBetween(replay.origin, replay.reference) + duration <= kMaxRecordingSpan && end < 4294967295.0)) {
-    return Error{what + ": the run would end at ROS time " + numberText(end) + " s, beyond " +
+    return Error{what + ": the run would end at ROS time " + secondsText(end) + " s, beyond " +
                  (end < 4294967295.0 ? "the span a recording can have (1e+09 s)" : "the largest ROS time")};
   }
   return duration;
@@ -317,6 +317,54 @@ class StateComparison {
   bool has_ = false;
 };
 
+}  // namespace
+
+struct RunReplay::Impl {
+  ReplaySettings settings;
+  CommandFeed feed{std::vector<Command>()};
+  std::optional<StateComparison> comparison;
+  std::uint64_t steps = 0;
+};
+
+RunReplay::RunReplay() : impl_(std::make_unique<Impl>()) {}
+RunReplay::~RunReplay() = default;
+
+Expected<std::unique_ptr<RunReplay>> RunReplay::open(const RecordedRun* run, const std::string& node, const Scene& scene,
+                                                     const Timeline& timeline, double duration, std::size_t vertices,
+                                                     BagRunReport& report) {
+  std::unique_ptr<RunReplay> replay(new RunReplay());
+  Impl& r = *replay->impl_;
+  if (run != nullptr) {
+    FEM_CLOTH_CHECK(checkRecordedStates(run->path, node, vertices));
+    Expected<StateComparison> opened = StateComparison::open(run->path, node);
+    if (!opened) return Error{opened.error()};
+    r.comparison.emplace(std::move(opened).value());
+    report.recordedStates = r.comparison->count();
+    r.feed = CommandFeed(run->commands);
+  }
+  r.settings = replaySettings(run, timeline, scene.dt, report);
+  Expected<double> length = replayDuration(duration, scene, r.settings);
+  if (!length) return Error{length.error()};
+  r.steps = static_cast<std::uint64_t>(std::llround(std::ceil(*length / scene.dt - 1e-9)));
+  return replay;
+}
+
+std::uint64_t RunReplay::steps() const { return impl_->steps; }
+
+const std::map<std::uint64_t, std::string>& RunReplay::recordedStates() const { return impl_->settings.recorded; }
+
+void RunReplay::submitDue(SimulationDriver& driver, const std::function<void(const Command&, const Status&)>& rejected) {
+  impl_->feed.submitDue(driver, rejected);
+}
+
+Status RunReplay::compare(const SimulationDriver& driver, BagRunReport& report) {
+  return impl_->comparison ? impl_->comparison->compare(driver, report) : Status::success();
+}
+
+Expected<Timeline> replayTimeline(const RecordedRun* run, double dt) { return timelineOf(run, dt); }
+
+namespace {
+
 // The SimulationDriver fed with a recorded run, as the report steps it.
 class DriverRun : public DrivenSimulation {
  public:
@@ -398,38 +446,31 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   }
   const double dt = scene->dt;
   DriverSettings settings;
-  Expected<Timeline> timeline = replayTimeline(run ? &*run : nullptr, dt);
+  Expected<Timeline> timeline = timelineOf(run ? &*run : nullptr, dt);
   if (!timeline) return Error{timeline.error()};
-  std::optional<StateComparison> comparison;
-  if (run) {
-    FEM_CLOTH_CHECK(checkRecordedStates(inBag, options.node, static_cast<std::size_t>(simulation->mesh->numVertices())));
-    Expected<StateComparison> opened = StateComparison::open(inBag, options.node);
-    if (!opened) return Error{opened.error()};
-    comparison.emplace(std::move(opened).value());
-  }
-  settings.epoch = timeline->origin();
-  if (run && !run->frame.empty()) settings.frame = run->frame;
   BagRunReport report;
   report.scene = scene->name;
-  if (comparison) report.recordedStates = comparison->count();
+  Expected<std::unique_ptr<RunReplay>> opened =
+      RunReplay::open(run ? &*run : nullptr, options.node, *scene, *timeline, options.duration,
+                      static_cast<std::size_t>(simulation->mesh->numVertices()), report);
+  if (!opened) return Error{opened.error()};
+  RunReplay& replay = **opened;
+  settings.epoch = timeline->origin();
+  if (run && !run->frame.empty()) settings.frame = run->frame;
   report.warnings = simulation->warnings;
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   driver.setTimeline(*timeline);
   report.integrator = driver.simulator().integrator().name();
 
-  const ReplaySettings replay = replaySettings(run ? &*run : nullptr, driver, dt, report);
-  CommandFeed feed(run ? run->commands : std::vector<Command>());
   auto submitDue = [&]() {
-    feed.submitDue(driver, [&](const Command& c, const Status& s) {
+    replay.submitDue(driver, [&](const Command& c, const Status& s) {
       ++report.rejected;
       report.warnings.push_back(std::string(topicName(topicOf(c))) + " command rejected (as live): " + s.error());
     });
   };
-  const std::map<std::uint64_t, std::string>& recorded = replay.recorded;
-  Expected<double> duration = replayDuration(options, *scene, replay);
-  if (!duration) return Error{duration.error()};
-  const std::uint64_t total = static_cast<std::uint64_t>(std::llround(std::ceil(*duration / dt - 1e-9)));
+  const std::map<std::uint64_t, std::string>& recorded = replay.recordedStates();
+  const std::uint64_t total = replay.steps();
   const std::uint64_t every =
       options.every > 0 ? static_cast<std::uint64_t>(options.every)
                         : std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::llround(1.0 / (30.0 * dt))));
@@ -454,7 +495,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     out.write(topics.stats, t, statsMessage(driver, r, wall, 0.0));
   };
   // Every recorded state is compared when the replay reaches its step, written or not.
-  auto compare = [&]() { return comparison ? comparison->compare(driver, report) : Status::success(); };
+  auto compare = [&]() { return replay.compare(driver, report); };
   FEM_CLOTH_CHECK(compare());
   if (wanted(0)) record(StepReport(), 0.0);
 

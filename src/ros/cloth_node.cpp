@@ -49,7 +49,7 @@ const std::vector<std::string>& ClothNode::parameterNames() {
         "always_publish", "start_paused", "tf_timeout",        "step_lag",
         "replay_bag",   "max_pin_jump",  "max_pending_commands", "command_queue_size",
         "max_failed_attempts", "tf_cache_time", "max_lag", "lag_policy", "frame_wait_timeout",
-        "test_step_delay"};
+        "test_step_delay", "replay_mode"};
     own.insert(own.end(), perceptionParameterNames().begin(), perceptionParameterNames().end());
     return own;
   }();
@@ -62,8 +62,9 @@ ClothNode::ClothNode(ros::NodeHandle node, ros::NodeHandle privateNode)
 ClothNode::~ClothNode() = default;
 
 bool ClothNode::readParameters(std::string* error) {
-  std::string mode = "real_time";
-  if (!readParam(private_, "frame_id", frame_, error, "a string") ||
+  std::string mode = "real_time", replayMode = "play";
+  if (!readParam(private_, "replay_mode", replayMode, error, "a string (play or drive)") ||
+      !readParam(private_, "frame_id", frame_, error, "a string") ||
       !readParam(private_, "time_mode", mode, error, "a string (real_time or fast)") ||
       !readParam(private_, "real_time_factor", realTimeFactor_, error, "a number") ||
       !readParam(private_, "publish_rate", publishRate_, error, "a number (Hz)") ||
@@ -109,6 +110,21 @@ bool ClothNode::readParameters(std::string* error) {
     *error = s.error();
     return false;
   }
+  if (replayMode != "play" && replayMode != "drive") {
+    *error = "parameter ~replay_mode must be play or drive, got '" + printableText(replayMode) + "'";
+    return false;
+  }
+  replayDrive_ = replayMode == "drive";
+  if (replayDrive_ && replayBag_.empty()) {
+    *error = "parameter ~replay_mode drive replays a recording: give it in ~replay_bag";
+    return false;
+  }
+  if (replayDrive_ && private_.hasParam("time_mode") && mode != "fast") {
+    *error = "parameter ~replay_mode drive steps as fast as it can, publishing /clock: ~time_mode must be fast (or "
+             "not given), got '" + printableText(mode) + "'";
+    return false;
+  }
+  if (replayDrive_) mode = "fast";
   if (mode == "real_time") {
     timeMode_ = TimeMode::RealTime;
   } else if (mode == "fast") {
@@ -242,7 +258,18 @@ bool ClothNode::start(std::string* error) {
   }
   for (const std::string& w : simulation->warnings) ROS_WARN_STREAM("fem_cloth_node: mesh: " << w);
 
-  if (replay && !hasStartTime_) {
+  if (replayDrive_) {
+    // The bag's timeline (its states', else from its start), as fem_cloth_sim --commands takes it.
+    Expected<Timeline> timeline = replayTimeline(&*replay, scene->dt);
+    if (!timeline) {
+      *error = "~replay_bag: " + timeline.error();
+      return false;
+    }
+    startTime_ = timeline->origin();
+    hasStartTime_ = true;
+    replayTimeline_ = *timeline;
+    if (!replay->frame.empty() && !private_.hasParam("frame_id")) frame_ = replay->frame;
+  } else if (replay && !hasStartTime_) {
     if (std::optional<ros::Time> epoch = runEpoch(*replay, scene->dt)) {
       if (Expected<ros::Time> t = checkedTime(epoch->toSec(), "the time origin of ~replay_bag"); !t) {
         *error = t.error();
@@ -259,7 +286,15 @@ bool ClothNode::start(std::string* error) {
   settings.maxPinJump = maxPinJump_;
   settings.maxPendingCommands = static_cast<std::size_t>(maxPendingCommands_);
   const double dt = scene->dt;
-  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), settings, tfBuffer_.get(), *doc);
+  // replay_mode drive: the frames are the bag's, as fem_cloth_sim --commands reads them.
+  const tf2::BufferCore* tf = tfBuffer_.get();
+  if (replayDrive_) {
+    replayRun_ = std::move(replay);
+    replayScene_ = *scene;
+    tf = replayRun_->tf.get();
+  }
+  driver_ = std::make_unique<SimulationDriver>(std::move(simulation).value(), settings, tf, *doc);
+  if (replayDrive_ && !openReplay(error)) return false;
   publishEvery_ = everyFor(publishRate_, dt);
   markerEvery_ = everyFor(markerRate_, dt);
   control_ = std::make_unique<RunControl>(startPaused_, dt);
@@ -301,6 +336,10 @@ bool ClothNode::start(std::string* error) {
        << (timeMode_ == TimeMode::Fast ? "fast (publishing /clock)" : "real time");
   if (timeMode_ == TimeMode::RealTime && realTimeFactor_ != 1.0) info << " x" << realTimeFactor_;
   if (startPaused_) info << ", paused";
+  if (replayDrive_) {
+    info << "; replaying '" << replayBag_ << "' (replay_mode drive): " << runReplay_->steps() << " steps, "
+         << replayReport_.recordedStates << " recorded states to reproduce";
+  }
   ROS_INFO_STREAM(info.str());
   return true;
 }
@@ -308,9 +347,12 @@ bool ClothNode::start(std::string* error) {
 void ClothNode::advertise() {
   meshPub_ = private_.advertise<shape_msgs::Mesh>("mesh", 1, true);
   // Latched: a subscriber that comes late (to a paused node, say) gets the last state at once.
-  statePub_ = private_.advertise<ClothState>("state", 10, true);
-  energyPub_ = private_.advertise<ClothEnergy>("energy", 10);
-  statsPub_ = private_.advertise<StepStats>("stats", 10);
+  // replay_mode drive steps as fast as it can: a recorder that falls behind for a while still
+  // gets every state.
+  const std::uint32_t queue = replayDrive_ ? 1000 : 10;
+  statePub_ = private_.advertise<ClothState>("state", queue, true);
+  energyPub_ = private_.advertise<ClothEnergy>("energy", queue);
+  statsPub_ = private_.advertise<StepStats>("stats", queue);
   pinForcesPub_ = private_.advertise<PinForces>("pin_forces", 10);
   pinWrenchPub_ = private_.advertise<geometry_msgs::WrenchStamped>("pin_wrench", 10);
   diagnosticsPub_ = node_.advertise<diagnostic_msgs::DiagnosticArray>("/diagnostics", 10);
@@ -382,7 +424,10 @@ void ClothNode::takeCommands() {
   const std::vector<Command> arrived = inbox_->take(&tickets);
   for (std::size_t k = 0; k < arrived.size(); ++k) {
     const Command& c = arrived[k];
-    const Status s = driver_->submit(c, tickets[k]);
+    // replay_mode drive: the run is the recording's; a command from outside would make it another.
+    const Status s = replayDrive_ ? Status(Error{"the node replays '" + replayBag_ + "' (replay_mode drive): its "
+                                                 "commands come from the recording alone"})
+                                  : driver_->submit(c, tickets[k]);
     if (!s) reject(topicOf(c), s.error());
     if (!s && tickets[k] != 0) live_->answer(tickets[k], s, c, driver_->stepIndex(), driver_->simulator().time());
   }
@@ -452,6 +497,8 @@ void ClothNode::doReset() {
   dueOrigin_ = ros::Time::now().toSec();
   if (replayTimeline_) {
     driver_->setTimeline(*replayTimeline_);
+    std::string why;
+    if (replayDrive_ && !openReplay(&why)) throw std::runtime_error(why);  // it opened at start-up
   } else if (!hasStartTime_ && timeMode_ == TimeMode::RealTime) {
     driver_->setEpoch(ros::Time::now());
   }
@@ -459,6 +506,9 @@ void ClothNode::doReset() {
   clearSelfPause();
   lastReport_ = StepReport();
   publishOutputs(lastReport_, 0.0, true);
+  if (replayDrive_) {
+    if (Status s = runReplay_->compare(*driver_, replayReport_); !s) throw std::runtime_error(s.error());
+  }
   control_->resetDone();
 }
 
@@ -540,6 +590,18 @@ void ClothNode::stepOnce() {
   if (testStepDelay_ > 0.0) ros::WallDuration(testStepDelay_).sleep();  // a slow step, for tests
   appliedAtStep_ = driver_->stepIndex();  // the state the due commands take effect in
   appliedAtTime_ = driver_->simulator().time();
+  if (replayDrive_) {
+    runReplay_->submitDue(*driver_, [this](const Command& c, const Status& s) {
+      ++replayReport_.rejected;
+      reject(topicOf(c), "a recorded command the replay rejects (as the recorded run did): " + s.error());
+    });
+    std::string missing;
+    if (!driver_->transformsReady(&missing)) {
+      warn("replay tf", "step " + std::to_string(driver_->stepIndex() + 1) + ": '" + replayBag_ +
+                            "' has no transform for " + missing + "; the newest one is used (as the recorded run did if it did)",
+           "similar warnings");
+    }
+  }
   lastReport_ = driver_->step();
   const StepReport& report = lastReport_;
   stepWallTime_ = (ros::WallTime::now() - begin).toSec();
@@ -576,7 +638,53 @@ void ClothNode::stepOnce() {
     }
   }
   publishClock();
-  publishOutputs(report, stepWallTime_, false);
+  // replay_mode drive: every recorded state goes out, whatever the publish rate.
+  bool recorded = false;
+  if (replayDrive_ && report.ok) {
+    if (Status s = runReplay_->compare(*driver_, replayReport_); !s) throw std::runtime_error(s.error());
+    recorded = runReplay_->recordedStates().count(driver_->stepIndex()) > 0;
+  }
+  publishOutputs(report, stepWallTime_, recorded);
+}
+
+bool ClothNode::openReplay(std::string* error) {
+  replayReport_ = BagRunReport();
+  replaySummary_.clear();
+  Expected<std::unique_ptr<RunReplay>> replay =
+      RunReplay::open(&*replayRun_, ros::this_node::getName(), *replayScene_, driver_->timeline(), 0.0,
+                      static_cast<std::size_t>(driver_->simulator().model().numVertices()), replayReport_);
+  if (!replay) {
+    *error = "~replay_bag: " + replay.error();
+    return false;
+  }
+  runReplay_ = std::move(replay).value();
+  return true;
+}
+
+void ClothNode::endOfReplay(const RunControl::Boundary& b) {
+  const std::uint64_t step = driver_->stepIndex();
+  const std::string over = "the replay of '" + replayBag_ + "' is over at step " + std::to_string(step) +
+                           " (t = " + numberText(driver_->simulator().time()) + " s): ~reset replays it again";
+  if (replaySummary_.empty()) {
+    const BagRunReport& r = replayReport_;
+    replaySummary_ = "replay of '" + replayBag_ + "' done: " + std::to_string(step) + " steps, reproduced " +
+                     std::to_string(r.identical) + " of " + std::to_string(r.recordedStates) +
+                     " recorded states bit for bit" +
+                     (r.firstDifference.empty() ? "" : "; first difference: " + r.firstDifference) +
+                     (r.rejected == 0 ? "" : "; " + std::to_string(r.rejected) + " recorded commands rejected");
+    if (r.identical == r.recordedStates) {
+      ROS_INFO_STREAM("fem_cloth_node: " << replaySummary_ << "; paused (" << over << ")");
+    } else {
+      lastProblem_ = replaySummary_;
+      ROS_WARN_STREAM("fem_cloth_node: " << replaySummary_ << "; paused (" << over << ")");
+    }
+    publishDiagnostics(true);
+  }
+  if (b.running) control_->pause();
+  if (b.stepWanted && control_->beginStep(driver_->simulator().time() + driver_->simulator().settings().dt)) {
+    control_->endStep(step, driver_->simulator().time(), over);
+  }
+  control_->wait(0.05);
 }
 
 void ClothNode::publishApplied() {
@@ -880,6 +988,13 @@ void ClothNode::publishDiagnostics(bool force) {
   std::string waiting;
   for (const std::string& f : framesWaitedFor_) waiting += (waiting.empty() ? "" : " ") + f;
   add("waiting for frames", waiting);
+  if (replayDrive_) {
+    add("replay: recorded states reproduced bit for bit",
+        std::to_string(replayReport_.identical) + " of " + std::to_string(replayReport_.compared) + " compared (" +
+            std::to_string(replayReport_.recordedStates) + " recorded)");
+    add("replay: steps", std::to_string(driver_->stepIndex()) + " of " + std::to_string(runReplay_->steps()));
+    if (!replayReport_.firstDifference.empty()) add("replay: first difference", replayReport_.firstDifference);
+  }
   if (selfPause_ != SelfPause::None) status.message = selfPauseWhy_;
   status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
                  : (rejected > 0 || !lastProblem_.empty() || !balance.ok() || selfPause_ != SelfPause::None)
@@ -925,6 +1040,9 @@ void ClothNode::begin() {
   scenePub_.publish(sceneMsg);
   publishClock();
   publishOutputs(StepReport(), 0.0, true);
+  if (replayDrive_) {
+    if (Status s = runReplay_->compare(*driver_, replayReport_); !s) throw std::runtime_error(s.error());
+  }
 }
 
 void ClothNode::turn() {
@@ -953,6 +1071,10 @@ void ClothNode::turn() {
     control_->wait(0.05);
     return;
   }
+  if (replayDrive_ && driver_->stepIndex() >= runReplay_->steps()) {
+    endOfReplay(b);
+    return;
+  }
   if (b.running && timeMode_ == TimeMode::RealTime) {
     const double wait = secondsUntilDue();
     if (wait > 0.0) {
@@ -963,7 +1085,8 @@ void ClothNode::turn() {
   }
   // Not a step with transforms tf no longer holds, nor (before the first) without the frames the
   // scene follows.
-  if ((b.running && !lagAllowsStep()) || (driver_->stepIndex() == 0 && !followedFramesArrived())) {
+  // (replay_mode drive: the frames are the recording's, which has what it has.)
+  if ((b.running && !lagAllowsStep()) || (!replayDrive_ && driver_->stepIndex() == 0 && !followedFramesArrived())) {
     publishDiagnostics(false);
     control_->wait(0.01);
     return;
@@ -971,7 +1094,7 @@ void ClothNode::turn() {
   // Wait (up to tf_timeout) for the transforms this step needs at exactly its times, so that a
   // replay of the run sees the same frames; in lock-step, once /clock has reached them.
   clockToStepEnd();
-  if (!transformsReady()) {
+  if (!replayDrive_ && !transformsReady()) {
     control_->wait(0.001);
     return;
   }
@@ -993,7 +1116,7 @@ void ClothNode::turn() {
 }
 
 bool ClothNode::countFailedAttempt() {
-  if (replayTimeline_) {
+  if (replayTimeline_ && !replayDrive_) {
     // A live replay retries until the recorded commands that got the recorded run past this
     // step come (a ~remove_obstacle, say, made while the recorded run was paused).
     error(WarningThrottle::kindOf(lastReport_.error), lastReport_.error, "failed steps");

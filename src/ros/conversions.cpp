@@ -178,8 +178,12 @@ ClothEnergy toMsg(const std_msgs::Header& header, std::uint64_t step, const Ener
   msg.gravity = e.gravity;
   msg.external_work = e.externalWork;
   msg.pin_work = e.pinWork;
+  msg.contact_work = e.contactWork;
+  msg.air_work = e.airWork;
+  msg.live_work = e.liveWork;
   msg.dissipated = e.dissipated;
   msg.total = e.total;
+  msg.initial_total = e.initialTotal;
   msg.balance_error = e.balanceError;
   return msg;
 }
@@ -192,8 +196,12 @@ EnergyReport fromMsg(const ClothEnergy& msg) {
   e.gravity = msg.gravity;
   e.externalWork = msg.external_work;
   e.pinWork = msg.pin_work;
+  e.contactWork = msg.contact_work;
+  e.airWork = msg.air_work;
+  e.liveWork = msg.live_work;
   e.dissipated = msg.dissipated;
   e.total = msg.total;
+  e.initialTotal = msg.initial_total;
   e.balanceError = msg.balance_error;
   return e;
 }

@@ -50,7 +50,7 @@ FramePose FrameResolver::pose(const std::string& frame, const ros::Time& at) con
   } catch (const tf2::TransformException& e) {
     return FramePose::unknown("frame '" + frame + "' is not connected to '" + tfFrameName(frame_) + "': " + e.what());
   } catch (const std::exception& e) {  // rostime's range errors, for transforms stamped far apart
-    return FramePose::unknown("frame '" + frame + "': tf failed at " + numberText(at.toSec()) + " s: " + e.what());
+    return FramePose::unknown("frame '" + frame + "': tf failed at " + rosTimeText(at) + " s: " + e.what());
   }
 }
 
@@ -87,7 +87,7 @@ FramePose FrameResolver::lookup(const std::string& frame, const ros::Time& at) c
   const double age = secondsBetween(at, latest);
   if (age <= tfTimeout_) {
     return FramePose(tf2::transformToEigen(newest), "frame '" + frame + "' is not known yet at " +
-                                                        numberText(at.toSec()) + " s; its newest transform, " +
+                                                        rosTimeText(at) + " s; its newest transform, " +
                                                         numberText(age) + " s older, stands in");
   }
   return FramePose::unknown("frame '" + frame + "' is stale: its newest transform is " + numberText(age) +
@@ -108,7 +108,7 @@ FramePose FrameResolver::firstTransform(const std::string& frame, const ros::Tim
   const double gap = secondsBetween(available, at);
   if (gap <= tfTimeout_) {
     return FramePose(tf2::transformToEigen(tfLookup(source, available)),
-                     "frame '" + frame + "' is not known yet at " + numberText(at.toSec()) +
+                     "frame '" + frame + "' is not known yet at " + rosTimeText(at) +
                          " s; its first transform, " + numberText(gap) + " s later, stands in");
   }
   return FramePose::unknown("frame '" + frame + "' is unknown at the time it is needed: its first transform " +

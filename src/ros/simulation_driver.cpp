@@ -12,6 +12,7 @@
 #include "fem_cloth/core/live_change.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/ros/time_checks.h"
+#include "fem_cloth/ros/time_text.h"
 #include "fem_cloth/ros/transform_wait.h"
 
 namespace fem_cloth {
@@ -494,7 +495,7 @@ void SimulationDriver::followObstacleFrames(double time, double endTime) {
       // behind the node, shows as such.
       warnings_.push_back("obstacle '" + o.name + "' is not placed yet: its frame '" + o.frame +
                           "' has no pose at the start of the step, t = " + numberText(time) + " s (ROS time " +
-                          numberText(stampOf(time).toSec()) + " s): " + why);
+                          rosTimeText(stampOf(time)) + " s): " + why);
       continue;
     }
     std::optional<Eigen::Isometry3d> end = pose(endTime);

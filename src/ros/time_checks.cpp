@@ -4,13 +4,15 @@
 #include <cstdint>
 #include <limits>
 
+#include "fem_cloth/ros/time_text.h"
+
 namespace fem_cloth {
 
 namespace {
 
 // "<what> = <value> s" for the messages.
 std::string named(const std::string& what, double seconds) {
-  return what + " = " + numberText(seconds) + " s";
+  return what + " = " + secondsText(seconds) + " s";
 }
 
 }  // namespace
@@ -19,7 +21,7 @@ Expected<ros::Duration> checkedDuration(double seconds, const std::string& what)
   if (!std::isfinite(seconds)) return Error{named(what, seconds) + " is not a finite duration"};
   if (!(std::fabs(seconds) < kMaxRosDuration)) {
     return Error{named(what, seconds) + " is longer than a ROS duration can be (" +
-                 numberText(kMaxRosDuration) + " s, 68 years)"};
+                 secondsText(kMaxRosDuration) + " s, 68 years)"};
   }
   return ros::Duration(seconds);
 }
@@ -29,7 +31,7 @@ Expected<ros::Time> checkedTime(double seconds, const std::string& what) {
     return Error{named(what, seconds) + " is not a ROS time (a finite number of seconds >= 0)"};
   }
   if (seconds > kMaxRosDuration) {
-    return Error{named(what, seconds) + " is later than " + numberText(kMaxRosDuration) +
+    return Error{named(what, seconds) + " is later than " + secondsText(kMaxRosDuration) +
                  " s (19 January 2038): the difference to ROS time now would not fit a ROS "
                  "duration (32-bit seconds)"};
   }
@@ -47,9 +49,9 @@ Expected<double> checkedSecondsSince(const ros::Time& t, const ros::Time& origin
                                      const std::string& what) {
   const double d = secondsBetween(t, origin);
   if (!(std::fabs(d) < kMaxRosDuration)) {
-    return Error{what + " = " + numberText(t.toSec()) + " s is " + numberText(d) +
-                 " s from the simulation's time origin (ROS time " + numberText(origin.toSec()) +
-                 " s): more than a ROS duration can be (" + numberText(kMaxRosDuration) + " s)"};
+    return Error{what + " = " + rosTimeText(t) + " s is " + secondsText(d) +
+                 " s from the simulation's time origin (ROS time " + rosTimeText(origin) +
+                 " s): more than a ROS duration can be (" + secondsText(kMaxRosDuration) + " s)"};
   }
   return d;
 }
@@ -71,7 +73,7 @@ Expected<ros::Time> checkedTimeAfter(const ros::Time& origin, double seconds,
       return t;
     }
   }
-  return Error{named(what, seconds) + " after ROS time " + numberText(origin.toSec()) +
+  return Error{named(what, seconds) + " after ROS time " + rosTimeText(origin) +
                " s is not a ROS time (0 to 2^32 s)"};
 }
 

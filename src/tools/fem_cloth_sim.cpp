@@ -142,7 +142,8 @@ void writeEnergy(std::ostream& energy, Simulator& sim, const EdgeStretch& stretc
   const StepReport& r = sim.lastReport();
   energy << std::setprecision(12) << sim.time() << ',' << sim.state().step << ',' << e.kinetic
          << ',' << e.strain << ',' << e.bending << ',' << e.gravity << ',' << e.externalWork << ','
-         << e.pinWork << ',' << e.dissipated << ',' << e.total << ',' << e.balanceError << ','
+         << e.pinWork << ',' << e.contactWork << ',' << e.airWork << ',' << e.liveWork << ','
+         << e.dissipated << ',' << e.total << ',' << e.balanceError << ','
          << stretch.mean << ',' << stretch.max << ',' << minJ << ',' << r.substeps << ','
          << r.newtonIterations << ',' << r.residual << ',' << r.lineSearchBacktracks << ','
          << r.rollbacks << '\n';
@@ -175,7 +176,9 @@ Json energyJson(const EnergyReport& e) {
               {"bending", e.bending},         {"gravity", e.gravity},
               {"total", e.total},             {"external_work", e.externalWork},
               {"pin_work", e.pinWork},        {"contact_work", e.contactWork},
-              {"dissipated", e.dissipated},   {"balance_error", e.balanceError}};
+              {"air_work", e.airWork},        {"live_work", e.liveWork},
+              {"dissipated", e.dissipated},   {"initial_total", e.initialTotal},
+              {"balance_error", e.balanceError}};
 }
 
 // The energy balance as both summaries judge it (judgeBalance, acceptance (b) over the run), and
@@ -189,6 +192,16 @@ Json balanceJson(const EnergyReport& e, const BalanceJudgement& b) {
 // out of tolerance, or pins yanked the cloth) or "ok".
 const char* runStatus(const std::string& failure, const EnergyReport& e, const BalanceJudgement& b) {
   return !failure.empty() ? "failed" : (b.ok() && e.pinJumps == 0) ? "ok" : "warning";
+}
+
+// The summaries' work line: every work term of the balance (EnergyReport), so that the balance
+// error is recomputable from the summary (and from ClothEnergy) alone.
+std::string workLine(const EnergyReport& e) {
+  std::ostringstream line;
+  line << std::setprecision(4) << "work (J):     external " << e.externalWork << ", pins " << e.pinWork << ", contact "
+       << e.contactWork << " (obstacles and self-contact, friction included), air " << e.airWork
+       << ", live changes " << e.liveWork << ", dissipated by damping " << e.dissipated << '\n';
+  return line.str();
 }
 
 // The summaries' balance line: the judgement, and what of the loss is the scheme's (expected);
@@ -298,8 +311,8 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   }
   std::cout << "energy (J):   kinetic " << r.energy.kinetic << ", strain " << r.energy.strain
             << ", bending " << r.energy.bending << ", gravity " << r.energy.gravity << ", total "
-            << r.energy.total << ", work: pins " << r.energy.pinWork << ", external "
-            << r.energy.externalWork << ", dissipated by damping " << r.energy.dissipated << '\n';
+            << r.energy.total << " (at the start " << r.energy.initialTotal << ")\n";
+  std::cout << workLine(r.energy);
   const BalanceJudgement& balance = r.balance;
   std::cout << balanceLine(r.energy, balance);
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
@@ -369,8 +382,8 @@ Expected<CsvOutputs> openCsvOutputs(const Options& opt, const Scene& scene, cons
     for (int k = 0; k < simulator.dim(); ++k) trajectory << ',' << axes[k] << i;
   }
   trajectory << '\n';
-  out.energy->stream() << "time,step,kinetic,strain,bending,gravity,external_work,pin_work,dissipated,total,"
-                          "balance_error,mean_stretch,max_stretch,min_area_ratio,substeps,newton_iterations,"
+  out.energy->stream() << "time,step,kinetic,strain,bending,gravity,external_work,pin_work,contact_work,"
+                          "air_work,live_work,dissipated,total,balance_error,mean_stretch,max_stretch,min_area_ratio,substeps,newton_iterations,"
                           "residual,backtracks,rollbacks\n";
   return out;
 }
@@ -397,10 +410,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
           << " (real-time factor " << simulator.time() / std::max(wall, 1e-9) << ")\n";
   summary << "energy (J):   kinetic " << e.kinetic << ", strain " << e.strain << ", bending "
           << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
-  summary << "work (J):     external " << e.externalWork << ", pins " << e.pinWork
-          << ", dissipated by damping " << e.dissipated;
-  if (simulator.air() != nullptr) summary << ", air " << e.airWork;
-  summary << '\n';
+  summary << workLine(e);
   if (const ObstacleSet* obstacles = simulator.obstacles()) {
     // What each obstacle carries at the end (N, in the simulation frame): a table under a
     // resting cloth carries its weight.

@@ -2,6 +2,12 @@
 // resolver asks tf once per frame and time (frame_resolver.h). No master needed.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <iostream>
+
+#include "fem_cloth/core/live_change.h"
+#include "fem_cloth/io/live_change.h"
+#include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/conversions.h"
 #include "fem_cloth/ros/frame_resolver.h"
 
@@ -78,6 +84,59 @@ TEST(Conversions, StateRoundTripsWithItsHash) {
   EXPECT_EQ(fromMsg(flat, 2).x, planar.x);
 }
 
+// ClothEnergy carries every term of the balance: its balance_error is recomputable from the
+// message alone, by the formula its definition gives (msg/ClothEnergy.msg), in a run where each
+// work term is at work: a pulled pin, a force, a table rising under the cloth, air, and a live
+// stiffening. Each term is far larger than the tolerance, so leaving any one out fails.
+TEST(Conversions, EnergyBalanceIsRecomputableFromTheMessage) {
+  const YAML::Node doc = YAML::Load(R"(
+name: every_work
+mesh: {type: grid, rows: 5, cols: 5, width: 0.2, height: 0.2, origin: [0, 0, 0.001]}
+material: {model: stvk, youngs_modulus: 2.0e5, poisson_ratio: 0.3, thickness: 5.0e-4, density: 400}
+damping: {mass: 0.5}
+air: {density: 1.2, wind: [0, 0, -2.0]}
+integrator: {name: backward_euler, dt: 0.01}
+pins:
+  - grid_vertices: [[0, 0]]
+    velocity: [-0.05, 0, 0.1]
+forces:
+  - grid_vertices: [[-1, -1]]
+    force: [0.02, 0, 0]
+obstacles:
+  - {name: table, type: box, center: [0.1, 0.1, -0.25], size: [1.0, 1.0, 0.5], velocity: [0, 0, 0.1]}
+contact: {distance: 2.0e-3}
+)");
+  Expected<Scene> scene = parseScene(doc);
+  ASSERT_TRUE(scene.ok()) << scene.error();
+  Expected<Simulation> sim = buildSimulation(*scene);
+  ASSERT_TRUE(sim.ok()) << sim.error();
+  auto steps = [](Simulation& s, int n) {
+    for (int k = 0; k < n; ++k) {
+      ASSERT_TRUE(s.script.applyDue(*s.simulator).ok());
+      const StepReport r = s.simulator->step();
+      ASSERT_TRUE(r.ok) << r.error;
+    }
+  };
+  steps(*sim, 20);
+  Expected<LiveChange> change = applyLiveChange(doc, {"material.youngs_modulus=4.0e5"});
+  ASSERT_TRUE(change.ok()) << change.error();
+  Expected<Simulation> next = changeLive(*sim, change->scene);
+  ASSERT_TRUE(next.ok()) << next.error();
+  steps(*next, 20);
+  const ClothEnergy m = toMsg(header(ros::Time(1.0), "world"), 40, next->simulator->energies());
+  for (double work : {m.external_work, m.pin_work, m.contact_work, m.air_work, m.live_work}) {
+    EXPECT_GT(std::abs(work), 1e-6);
+  }
+  const double recomputed = m.total - m.external_work - m.pin_work - m.contact_work - m.air_work -
+                            m.live_work + m.dissipated - m.initial_total;
+  EXPECT_NEAR(recomputed, m.balance_error, 1e-12);
+  EXPECT_EQ(m.total, m.kinetic + m.strain + m.bending + m.gravity);
+  std::cout << "works: external " << m.external_work << ", pins " << m.pin_work << ", contact "
+            << m.contact_work << ", air " << m.air_work << ", live " << m.live_work << " J; dissipated "
+            << m.dissipated << " J; balance error " << m.balance_error << " J, recomputed " << recomputed
+            << " J\n";
+}
+
 TEST(Conversions, EnergyAndWrenchRoundTrip) {
   EnergyReport e;
   e.kinetic = 1;
@@ -86,8 +145,12 @@ TEST(Conversions, EnergyAndWrenchRoundTrip) {
   e.gravity = -4;
   e.externalWork = 5;
   e.pinWork = 6;
+  e.contactWork = 8;
+  e.airWork = -9;
+  e.liveWork = 10;
   e.dissipated = 7;
   e.total = 2;
+  e.initialTotal = 11;
   e.balanceError = 1e-9;
   const EnergyReport back = fromMsg(toMsg(header(ros::Time(1.0), "world"), 7, e));
   EXPECT_EQ(back.kinetic, 1);
@@ -96,8 +159,12 @@ TEST(Conversions, EnergyAndWrenchRoundTrip) {
   EXPECT_EQ(back.gravity, -4);
   EXPECT_EQ(back.externalWork, 5);
   EXPECT_EQ(back.pinWork, 6);
+  EXPECT_EQ(back.contactWork, 8);
+  EXPECT_EQ(back.airWork, -9);
+  EXPECT_EQ(back.liveWork, 10);
   EXPECT_EQ(back.dissipated, 7);
   EXPECT_EQ(back.total, 2);
+  EXPECT_EQ(back.initialTotal, 11);
   EXPECT_EQ(back.balanceError, 1e-9);
   const GraspWrench w{"gripper", Eigen::Vector3d(1, -2, 3), Eigen::Vector3d(-0.5, 0.25, 4)};
   const geometry_msgs::WrenchStamped msg = toMsg(header(ros::Time(2.0), "world"), w);

@@ -56,7 +56,7 @@ TEST(TimeChecks, RostimeThrowsWhereTheCheckedVersionsGiveNamedErrors) {
   EXPECT_THROW(ros::Duration(1e10), std::runtime_error);
   const Expected<ros::Duration> lag = checkedDuration(1e10, "parameter ~step_lag");
   ASSERT_FALSE(lag.ok());
-  EXPECT_TRUE(contains(lag.error(), "parameter ~step_lag = 1e+10 s")) << lag.error();
+  EXPECT_TRUE(contains(lag.error(), "parameter ~step_lag = 10000000000 s")) << lag.error();
   EXPECT_FALSE(checkedDuration(std::numeric_limits<double>::quiet_NaN(), "d").ok());
   const Expected<ros::Duration> fine = checkedDuration(-2.5, "d");
   ASSERT_TRUE(fine.ok());
@@ -66,7 +66,7 @@ TEST(TimeChecks, RostimeThrowsWhereTheCheckedVersionsGiveNamedErrors) {
 TEST(TimeChecks, TimesAreKeptWhereAnyTwoDifferByADuration) {
   const Expected<ros::Time> late = checkedTime(4e9, "parameter ~start_time");
   ASSERT_FALSE(late.ok());
-  EXPECT_TRUE(contains(late.error(), "parameter ~start_time = 4e+09 s")) << late.error();
+  EXPECT_TRUE(contains(late.error(), "parameter ~start_time = 4000000000 s")) << late.error();
   EXPECT_FALSE(checkedTime(-1.0, "t").ok());
   EXPECT_FALSE(checkedTime(std::numeric_limits<double>::infinity(), "t").ok());
   const Expected<ros::Time> t = checkedTime(1234.5, "t");
@@ -542,7 +542,7 @@ TEST(TfIntake, ATransformStampedWhereTf2OverflowsIsRefusedNotThrown) {
   tf2::BufferCore tf(ros::Duration(10.0));
   const Status s = insertTransform(tf, t, "test", false);
   ASSERT_FALSE(s.ok());
-  EXPECT_TRUE(contains(s.error(), "the stamp of transform 'world' -> 'bomb' = 4.29497e+09 s")) << s.error();
+  EXPECT_TRUE(contains(s.error(), "the stamp of transform 'world' -> 'bomb' = 4294967295 s")) << s.error();
   EXPECT_FALSE(tf._frameExists("bomb"));
   // A good one goes in; tf2's own refusals come back as errors.
   t.header.stamp = ros::Time(100.0);

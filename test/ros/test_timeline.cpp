@@ -7,9 +7,13 @@
 #include <rosbag/view.h>
 #include <std_msgs/String.h>
 
+#include <cmath>
+
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/simulation_driver.h"
+#include "fem_cloth/ros/time_checks.h"
+#include "fem_cloth/ros/time_text.h"
 #include "fem_cloth/ros/timeline.h"
 #include "../temp_dir.h"
 
@@ -213,6 +217,23 @@ TEST(CommandQueue, RetimeKeepsTheOrderOfEqualTimes) {
   EXPECT_EQ(headerOf(due[1]).stamp, at(3.0));
   EXPECT_TRUE(queue.takeDue(3.9).empty());
   EXPECT_EQ(queue.takeDue(4.0).size(), 1u);
+}
+
+// Seconds that may be a ROS time are printed in full (to the nanosecond, no trailing zeros), not
+// as 1.79646e+09: the range checks' messages name the time a user gave.
+TEST(TimeText, SecondsInFull) {
+  EXPECT_EQ(secondsText(1796460000.123), "1796460000.123");
+  EXPECT_EQ(secondsText(4294967295.0), "4294967295");
+  EXPECT_EQ(secondsText(-0.5), "-0.5");
+  EXPECT_EQ(secondsText(0.0), "0");
+  EXPECT_EQ(secondsText(1e300), "1e+300");  // no ROS time: as numberText
+  EXPECT_EQ(secondsText(std::nan("")), "nan");
+  const Expected<ros::Time> late = checkedTime(2500000000.25, "the stamp");
+  ASSERT_FALSE(late.ok());
+  EXPECT_EQ(late.error().rfind("the stamp = 2500000000.25 s is later than 2147483647 s", 0), 0u) << late.error();
+  const Expected<ros::Time> after = checkedTimeAfter(ros::Time(4294967000u, 500000000u), 300.0, "the end");
+  ASSERT_FALSE(after.ok());
+  EXPECT_NE(after.error().find("after ROS time 4294967000.500000000 s"), std::string::npos) << after.error();
 }
 
 // A recording that spans a reset of the node is refused with a `rosbag filter` expression that

@@ -194,7 +194,7 @@ TEST(Stamps, AStampNoRosDurationCanReachIsRejectedByNameAndTheNodeRunsOn) {
   c.forces.resize(1);
   c.forces[0].z = 0.2;
   c.duration = 1.0;
-  EXPECT_TRUE(diagnosticSays("~force rejected: header.stamp = 4.29497e+09 s", [&] { pub.publish(c); }));
+  EXPECT_TRUE(diagnosticSays("~force rejected: header.stamp = 4294967295.000000000 s", [&] { pub.publish(c); }));
   auto later = stepsOn();
   ASSERT_TRUE(later) << "the node stopped stepping";
   EXPECT_TRUE(finite(*later));
@@ -417,8 +417,8 @@ int runNode(const std::string& name, const std::string& arguments, std::string* 
 TEST(StartUp, ParametersNoRosTimeCanHoldStopItWithExitTwoNamingThem) {
   for (const auto& [name, argument, expected] :
        std::vector<std::tuple<std::string, std::string, std::string>>{
-           {"lag", "_step_lag:=1e10", "parameter ~step_lag = 1e+10 s"},
-           {"start", "_start_time:=4e9", "parameter ~start_time = 4e+09 s"},
+           {"lag", "_step_lag:=1e10", "parameter ~step_lag = 10000000000 s"},
+           {"start", "_start_time:=4e9", "parameter ~start_time = 4000000000 s"},
            {"jump", "_max_pin_jump:=-1", "parameter ~max_pin_jump must be positive"}}) {
     std::string output;
     EXPECT_EQ(runNode(name, argument, &output), 2) << argument << ": " << output;
@@ -442,7 +442,11 @@ TEST(StartUp, ParametersOnceTakenSilentlyStopItWithExitTwoNamingThem) {
            {"fast", "_real_time_factor:=1e308", "parameter ~real_time_factor must be between 0.001 and 1000"},
            {"slow", "_real_time_factor:=0.0001", "parameter ~real_time_factor must be between 0.001 and 1000"},
            {"camera", "_camera/frame_id:=world" + camera, "parameter ~camera/frame_id is 'world', the simulation frame"},
-           {"blank", "'_camera/frame_id:=my camera'" + camera, "parameter ~camera/frame_id must be a frame name without blanks"}}) {
+           {"blank", "'_camera/frame_id:=my camera'" + camera, "parameter ~camera/frame_id must be a frame name without blanks"},
+           {"mode", "_replay_mode:=fast", "parameter ~replay_mode must be play or drive, got 'fast'"},
+           {"drive", "_replay_mode:=drive", "parameter ~replay_mode drive replays a recording: give it in ~replay_bag"},
+           {"driven", "_replay_mode:=drive _replay_bag:=/nonexistent.bag _time_mode:=real_time",
+            "~time_mode must be fast (or not given), got 'real_time'"}}) {
     std::string output;
     EXPECT_EQ(runNode(name, argument, &output), 2) << argument << ": " << output;
     EXPECT_TRUE(contains(output, expected)) << argument << ": " << output;

@@ -16,6 +16,8 @@
 #include <fstream>
 #include <sstream>
 
+#include <nlohmann/json.hpp>
+
 #include "../run_program.h"
 #include "../temp_dir.h"
 
@@ -139,6 +141,46 @@ TEST(FemClothSim, WritesTrajectoryAndEnergy) {
   double time = 0.0;
   last >> time;
   EXPECT_NEAR(time, 0.05, 1e-12);
+}
+
+// The summaries carry every work term of the balance: a table rising under a cloth does its
+// work as contact (the old summary said "external 0, pins 0"), the text's work line and
+// --summary-json agree, and the balance error is recomputable from the JSON's terms alone.
+TEST(FemClothSim, TheSummaryCarriesEveryWorkTerm) {
+  const std::string scene = scratch().path("rising_table.yaml");
+  {
+    std::ofstream out(scene);
+    out << "name: rising_table\n"
+           "mesh: {type: grid, rows: 5, cols: 5, width: 0.2, height: 0.2, origin: [0, 0, 0.003]}\n"
+           "material: {model: stvk, mu: 1.0e6, lambda: 1.0e6, thickness: 1.0e-3, density: 1000}\n"
+           "integrator: {name: backward_euler, dt: 0.01}\n"
+           "obstacles:\n"
+           "  - {name: table, type: box, center: [0.1, 0.1, -0.25], size: [2, 2, 0.5], velocity: [0, 0, 0.1]}\n"
+           "contact: {distance: 2.0e-3}\n"
+           "duration: 0.3\n";
+  }
+  const std::string json = scratch().path("rising_table.json");
+  const Result r = runSim({"--scene", scene, "--no-output", "--summary-json", json});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const nlohmann::json e = nlohmann::json::parse(readFile(json)).at("energy");
+  const double contact = e.at("contact_work").get<double>();
+  // The cloth (0.04 kg) rose with the table, about 3 cm in 0.3 s: about m g 0.03 m = 0.012 J.
+  EXPECT_GT(contact, 0.005);
+  const double recomputed = e.at("total").get<double>() - e.at("external_work").get<double>() -
+                            e.at("pin_work").get<double>() - contact - e.at("air_work").get<double>() -
+                            e.at("live_work").get<double>() + e.at("dissipated").get<double>() -
+                            e.at("initial_total").get<double>();
+  EXPECT_NEAR(recomputed, e.at("balance_error").get<double>(), 1e-12);
+  std::string workLine;
+  for (const std::string& line : lines(r.out)) {
+    if (line.rfind("work (J):", 0) == 0) workLine = line;
+  }
+  ASSERT_FALSE(workLine.empty()) << r.out;
+  for (const char* term : {"external ", "pins ", "contact ", "air ", "live changes ", "dissipated by damping "}) {
+    EXPECT_NE(workLine.find(term), std::string::npos) << workLine;
+  }
+  const std::size_t at = workLine.find("contact ") + 8;
+  EXPECT_NEAR(std::stod(workLine.substr(at)), contact, 1e-3 * contact) << workLine;
 }
 
 TEST(FemClothSim, BadScenesAndOptionsExit2WithOneLine) {

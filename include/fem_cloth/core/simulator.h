@@ -55,6 +55,10 @@ struct EnergyReport {
   double liveWork = 0.0;
   double dissipated = 0.0;
   double total = 0.0;  ///< kinetic + strain + bending + gravity
+  /// The total at the start (or the last reset), measured with the current parameters (a live
+  /// change re-measures it and books the difference in liveWork): balanceError is
+  /// total - the works + dissipated - initialTotal.
+  double initialTotal = 0.0;
   double balanceError = 0.0;
   double numericalDissipation = 0.0;  ///< >= 0: lost by the steps that lost energy
   double created = 0.0;               ///< >= 0: gained by the steps that gained energy

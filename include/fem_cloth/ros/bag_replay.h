@@ -8,6 +8,8 @@
 #pragma once
 
 #include <array>
+#include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +18,7 @@
 #include "fem_cloth/core/simulator.h"
 #include "fem_cloth/io/recording.h"
 #include "fem_cloth/ros/bag_io.h"
+#include "fem_cloth/ros/simulation_driver.h"
 
 namespace fem_cloth {
 
@@ -68,6 +71,45 @@ struct BagRunReport {
 /// `failure`.
 Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& outBag,
                                 const BagRunOptions& options);
+
+/// The timeline of a replay of `run` (null: a run without a recording, from ROS time 0): the
+/// recorded states' (runTimeline()), else from the start of the bag. An error names a first state
+/// that fits no run started within the recording at the step `dt`.
+Expected<Timeline> replayTimeline(const RecordedRun* run, double dt);
+
+/// A recorded run replayed by whoever steps the SimulationDriver: fem_cloth_sim --commands
+/// (runToBag) and fem_cloth_node's replay_mode drive (the node reads the bag itself and steps in
+/// lock-step with it). Both submit each recorded command just before the step it takes effect
+/// before, as the node had received it by then (judged against the scene as it is at that
+/// moment), take the same number of steps and compare the same recorded states: so the node's
+/// states are fem_cloth_sim's, bit for bit.
+class RunReplay {
+ public:
+  /// `run` may be null (a scene run alone). `duration` (s): 0 for the default, up to the last
+  /// recorded state, or the last command + 1 s, or the scene's duration. Counts the commands and
+  /// recorded states in `report`. Errors: a recorded state that is damaged (stateDamage(), for a
+  /// mesh of `vertices` vertices), a run too long (as runToBag's).
+  static Expected<std::unique_ptr<RunReplay>> open(const RecordedRun* run, const std::string& node, const Scene& scene,
+                                                   const Timeline& timeline, double duration, std::size_t vertices,
+                                                   BagRunReport& report);
+  ~RunReplay();
+  /// The steps the replay takes from step 0.
+  std::uint64_t steps() const;
+  /// step -> state hash of every recorded state.
+  const std::map<std::uint64_t, std::string>& recordedStates() const;
+  /// Before each step: submits the commands due before it; `rejected` hears of each the driver
+  /// refuses (the node refused it live too: the recording holds what it applied).
+  void submitDue(SimulationDriver& driver, const std::function<void(const Command&, const Status&)>& rejected);
+  /// Before the first step and after each: compares the recorded states of the driver's step
+  /// with its state, counting in `report` (compared, identical, the first difference). Call it
+  /// for every step, in order.
+  Status compare(const SimulationDriver& driver, BagRunReport& report);
+
+ private:
+  RunReplay();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 /// A recorded run for the accuracy report (io/recording.h): its commands and tf frames drive a
 /// simulation through the node's SimulationDriver. Errors as readRun's.

@@ -23,6 +23,12 @@
 //   replay_bag        string  a recorded run: its scene (unless one is given) and its timeline
 //                             (start_time and the segments its pauses began, timeline.h) are
 //                             used, for replaying it live
+//   replay_mode       string  play: the commands and frames come from rosbag play (replay.launch),
+//                             on its /clock; drive: the node reads them from replay_bag itself and
+//                             steps in lock-step with the bag as fast as it can, publishing /clock
+//                             (time_mode fast), so that every recorded state is reproduced however
+//                             slow the machine; it pauses at the end of the recording, saying how
+//                             many recorded states it reproduced bit for bit (play)
 //   max_pin_jump      double  m: a pin target farther than this from its vertex is refused (1.0)
 //   max_pending_commands int  commands that may wait to be checked, and checked ones that may
 //                             wait for their stamp; more are refused (10000)
@@ -60,6 +66,7 @@
 #include <string>
 
 #include "fem_cloth/Advance.h"
+#include "fem_cloth/ros/bag_replay.h"
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/live_services.h"
 #include "fem_cloth/ros/perception.h"
@@ -125,6 +132,11 @@ class ClothNode {
   bool transformsReady();
   /// One step and its outputs.
   void stepOnce();
+  /// replay_mode drive: the replay of replay_bag from its start (at start-up and ~reset).
+  bool openReplay(std::string* error);
+  /// replay_mode drive, at the end of the recording: says once how the replay went, pauses, and
+  /// answers a ~step or ~advance that the replay is over.
+  void endOfReplay(const RunControl::Boundary& b);
   /// Publishes the commands the driver applied on ~applied_<topic>, and answers the services'
   /// callers waiting for them (applied in the state of appliedAtStep_).
   void publishApplied();
@@ -211,6 +223,12 @@ class ClothNode {
   double stepLag_ = 0.0;
   std::string replayBag_;
   std::optional<Timeline> replayTimeline_;  // the recorded run's, replayed live
+  bool replayDrive_ = false;                // replay_mode drive
+  std::optional<RecordedRun> replayRun_;    // replay_mode drive: the run (its tf is the driver's)
+  std::optional<Scene> replayScene_;        // and the scene it is replayed on
+  std::unique_ptr<RunReplay> runReplay_;    // and its commands, length and recorded states
+  BagRunReport replayReport_;               // what the replay reproduced so far
+  std::string replaySummary_;               // said at its end (empty before)
   double maxPinJump_ = 1.0;
   int maxPendingCommands_ = 10000, commandQueueSize_ = 1000;
   int maxFailedAttempts_ = 10;

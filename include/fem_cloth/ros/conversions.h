@@ -40,7 +40,8 @@ ClothState toMsg(const std_msgs::Header& header, const State& state, int d, bool
 State fromMsg(const ClothState& msg, int d);
 
 ClothEnergy toMsg(const std_msgs::Header& header, std::uint64_t step, const EnergyReport& energy);
-/// The energies a ClothEnergy holds (contactWork is not among them: 0).
+/// The energies a ClothEnergy holds: every term of the balance and its works (a message recorded
+/// before contact_work, air_work, live_work and initial_total existed reads them as 0).
 EnergyReport fromMsg(const ClothEnergy& msg);
 
 /// A step's statistics; min_area_ratio and the command counts are filled by the caller.

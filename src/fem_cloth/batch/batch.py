@@ -29,7 +29,8 @@ STATUSES = ("ok", "bad_input", "failed", "error")
 # says about its final state (SI units: s, J; stretch l/L - 1).
 RESULT_COLUMNS = ["status", "exit_code", "attempts", "error", "wall_s", "cpu_s", "worker", "steps",
                   "simulated_s", "sim_wall_s", "kinetic_j", "strain_j", "bending_j", "gravity_j",
-                  "total_j", "external_work_j", "pin_work_j", "dissipated_j", "balance_error_j",
+                  "total_j", "external_work_j", "pin_work_j", "contact_work_j", "air_work_j",
+                  "live_work_j", "dissipated_j", "balance_error_j",
                   "stretch_mean", "stretch_max", "stretch_max_run", "min_area_ratio", "state_hash",
                   "scene", "output", "scene_sha256"]
 _SUMMARY_FIELDS = {"steps": ("steps",), "simulated_s": ("simulated_s",), "sim_wall_s": ("wall_s",),
@@ -37,7 +38,7 @@ _SUMMARY_FIELDS = {"steps": ("steps",), "simulated_s": ("simulated_s",), "sim_wa
                    "stretch_max_run": ("stretch", "max_over_run"),
                    "min_area_ratio": ("min_area_ratio",), "state_hash": ("state_hash",)}
 for _energy in ("kinetic", "strain", "bending", "gravity", "total", "external_work", "pin_work",
-                "dissipated", "balance_error"):
+                "contact_work", "air_work", "live_work", "dissipated", "balance_error"):
     _SUMMARY_FIELDS[f"{_energy}_j"] = ("energy", _energy)
 _ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 
