@@ -7,10 +7,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <stdexcept>
 
 #include "config_scene.h"
+#include "fem_cloth/core/contact/pinch.h"
 #include "test_support.h"
 
 using namespace fem_cloth;
@@ -204,4 +206,78 @@ TEST(PinchLift, WithoutFrictionTheClothSlipsOut) {
   std::cout << "without friction the highest vertex is " << (highest - tableTop) * 1e3
             << " mm above where the cloth lay; the fingers rose " << risen * 1e3 << " mm\n";
   EXPECT_LT(highest - tableTop, 0.5 * risen);
+}
+
+// Issue 30, finding 3: the explicit steppers' projection pushes a vertex out to contact.distance
+// from each pad in turn; between pads closer than 2 contact.distance that pushes it from one into
+// the other every substep (symplectic Euler sent this cloth up at 17 m/s, exit 0). They refuse
+// the scene at load (and so at --check), naming both fingers, the narrowest slot, when, and the
+// integrators that take a pinch; backward Euler and BDF2 take the scene. The slot is worked out
+// here from the fingers' boxes: their footprints overlap, so it is the upper bottom face minus
+// the lower top face, linear between the trajectories' points, so smallest at one of them
+// (0.77 - 0.018 - 0.75 = 2 mm from t = 0.3 s on).
+TEST(PinchLift, ExplicitSteppersRefuseThePinchUpFront) {
+  const Scene base = configScene("pinch_lift.yaml");
+  const SceneObstacle& lower = base.obstacles[obstacleIndex(base, "lower_finger")];
+  const SceneObstacle& upper = base.obstacles[obstacleIndex(base, "upper_finger")];
+  double slot = 1e300, when = 0.0;
+  for (const auto* trajectory : {&lower.trajectory, &upper.trajectory}) {
+    for (const TrajectoryPoint& p : *trajectory) {
+      const double gap = boxAt(upper, p.time).bottom() - boxAt(lower, p.time).top();
+      if (gap < slot - 1e-12 || (std::abs(gap - slot) <= 1e-12 && p.time < when)) {
+        slot = gap;
+        when = p.time;
+      }
+    }
+  }
+  ASSERT_NEAR(slot, 0.77 - 0.018 - 0.75, 1e-12);
+  ASSERT_NEAR(when, 0.3, 1e-12);
+  char expected[64];
+  std::snprintf(expected, sizeof expected, "slot of %.2f mm at t = %.2f s", 1e3 * slot, when);
+  char twice[32];
+  std::snprintf(twice, sizeof twice, "(%.2f mm)", 2e3 * base.contact.distance);
+  for (const std::string integrator : {"symplectic_euler", "xpbd", "backward_euler", "bdf2"}) {
+    Scene scene = base;
+    scene.integrator = integrator;
+    const Status s = validateScene(scene);
+    if (integrator == "backward_euler" || integrator == "bdf2") {
+      EXPECT_TRUE(s) << integrator << ": " << s.error();
+      continue;
+    }
+    ASSERT_FALSE(s) << integrator;
+    for (const std::string& part :
+         {"obstacles: integrator " + integrator, std::string("'lower_finger'"), std::string("'upper_finger'"),
+          std::string(expected), std::string(twice), std::string("backward_euler, bdf2")}) {
+      EXPECT_NE(s.error().find(part), std::string::npos) << s.error() << "\nlacks " << part;
+    }
+  }
+}
+
+// findPinch on two boxes 0.1 m wide whose gap, 0.1 m at first, closes at 0.049 m/s: 2 mm left
+// at t = 2 s, the end of the run. At 0.047 m/s, 6 mm are left: no slot below 4 mm. A ball
+// resting on a floor (both static) squeezes nothing.
+TEST(PinchLift, FindPinchFindsTheNarrowestSlotOfMovingObstacles) {
+  auto box = [](const std::string& name, double x, double speed) {
+    Obstacle o;
+    o.name = name;
+    o.shape.type = ShapeType::Box;
+    o.shape.halfExtents = Eigen::Vector3d(0.05, 0.05, 0.05);
+    o.geometry.translation() = Eigen::Vector3d(x, 0.0, 0.0);
+    o.velocity = Eigen::Vector3d(-speed, 0.0, 0.0);
+    return o;
+  };
+  const std::optional<ObstaclePinch> p = findPinch({box("a", 0.0, 0.0), box("b", 0.2, 0.049)}, 4e-3, 2.0);
+  ASSERT_TRUE(p.has_value());
+  EXPECT_EQ(p->first, "a");
+  EXPECT_EQ(p->second, "b");
+  EXPECT_NEAR(p->gap, 0.1 - 0.049 * 2.0, 1e-9);
+  EXPECT_NEAR(p->time, 2.0, 1e-9);
+  EXPECT_FALSE(findPinch({box("a", 0.0, 0.0), box("b", 0.2, 0.047)}, 4e-3, 2.0).has_value());
+  Obstacle ball, floor;
+  ball.name = "ball";
+  ball.shape.type = ShapeType::Sphere;
+  ball.shape.radius = 0.25;
+  ball.geometry.translation() = Eigen::Vector3d(0.0, 0.0, 0.25);
+  floor.name = "floor";
+  EXPECT_FALSE(findPinch({ball, floor}, 4e-3, 2.0).has_value());
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "fem_cloth/core/contact/pinch.h"
 #include "fem_cloth/core/scene.h"
 
 namespace fem_cloth {
@@ -52,6 +53,7 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
   const std::string bendingDefault = s.bendingModel == BendingModel::Midedge ? " (the default)" : "";
   const std::vector<std::string> bendingModels = enumNames(bendingModelNames(), c.bendingModels);
   const auto firstOf = [](const std::vector<std::string>& v) { return v.empty() ? "" : v.front(); };
+  const std::optional<ObstaclePinch> pinch = c.contact == ContactMethod::Projection ? findScenePinch(s) : std::nullopt;
   return {
       {"material.model", [](const Scene&) { return true; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.materials, x.materialModel); },
@@ -73,6 +75,13 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
       {"obstacles", [](const Scene& x) { return !x.obstacles.empty(); },
        [](const IntegratorCapabilities& k, const Scene&) { return k.contact != ContactMethod::None; },
        "contact with obstacles", "", "remove the obstacles"},
+      // Issue 30: the projection cannot keep a vertex out of two pads closer than 2 dHat
+      // (contact/pinch.h).
+      {"obstacles", [pinch](const Scene&) { return pinch.has_value(); },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.contact == ContactMethod::Barriers; },
+       "a pinch between obstacles: " + (pinch ? pinchText(*pinch, s.contact.distance) : std::string()) +
+           ", where its projection cannot keep a vertex contact.distance from both",
+       "", "keep the obstacles 2 contact.distance apart"},
   };
 }
 
