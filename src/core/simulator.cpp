@@ -153,6 +153,8 @@ void Simulator::continueFrom(Simulator& from) {
   initialTotal_ = storedEnergy(initial_.state);
   const EnergyReport after = energies();
   book_.liveWork = from.book_.liveWork + (after.total - before.total) - (initialTotal_ - from.initialTotal_);
+  // The energy scale of the run's balance leaves out what the change put into the held energy.
+  book_.liveHeld += (after.kinetic + after.strain + after.bending) - (before.kinetic + before.strain + before.bending);
 }
 
 Status Simulator::checkVertex(Index vertex) const {
@@ -325,7 +327,7 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
 double Simulator::runEnergyScale(const EnergyStep& step) const {
   const double work = std::abs(book_.externalWork + step.externalWork) + std::abs(book_.pinWork + step.pinWork) +
                       std::abs(book_.contactWork + step.contactWork) + std::abs(book_.airWork + step.airWork);
-  return std::max({sizeScale_, book_.heldMost, step.held, work});
+  return std::max({sizeScale_, book_.heldMost, step.held - std::max(book_.liveHeld, 0.0), work});
 }
 
 void Simulator::EnergyBook::add(const EnergyStep& step) {
@@ -340,7 +342,7 @@ void Simulator::EnergyBook::add(const EnergyStep& step) {
   } else {
     numerical -= gained;
   }
-  heldMost = std::max(heldMost, step.held);
+  heldMost = std::max(heldMost, step.held - std::max(liveHeld, 0.0));
 }
 
 void Simulator::flagPinJump(StepReport& r, double energyStart, double dt) {

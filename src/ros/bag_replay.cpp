@@ -222,6 +222,22 @@ Status checkRecordedStates(const std::string& path, const std::string& node, std
   }
 }
 
+// Copies every /tf and /tf_static message of the recording `inBag` into `out`, as recorded: the
+// replayed commands were taken in those frames (a pin in a gripper's frame), so a replay of `out`
+// needs them as much as this replay needed them (issue 31).
+Status copyTransforms(const std::string& inBag, RunWriter& out) {
+  if (!out.writes()) return Status::success();
+  try {
+    rosbag::Bag bag(inBag, rosbag::bagmode::Read);
+    const std::vector<std::string> topics = {"/tf", "/tf_static"};
+    for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(topics))) out.copy(m);
+  } catch (const std::exception& e) {
+    // readRun read the same messages a moment ago: a bag changed since, or a full disk.
+    return Error{"cannot copy the transforms of bag '" + inBag + "' into the output: " + e.what()};
+  }
+  return Status::success();
+}
+
 bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
 // How far apart two lists of points or vectors are: the largest distance (and its vertex), and
@@ -487,6 +503,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   const ros::Time origin = driver.stampOf(0.0).isZero() ? ros::Time(1e-9) : driver.stampOf(0.0);
   out.write(topics.scene, origin, sceneMsg);
   out.write(topics.mesh, origin, toMsg(driver.simulator().model().mesh()));
+  if (run) FEM_CLOTH_CHECK(copyTransforms(inBag, out));
   auto record = [&](const StepReport& r, double wall) {
     const ros::Time t = driver.now().isZero() ? origin : driver.now();
     const ClothState state = toMsg(driver.header(), driver.simulator().state(), driver.simulator().dim(), false);

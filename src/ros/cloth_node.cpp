@@ -1083,10 +1083,12 @@ void ClothNode::turn() {
       return;
     }
   }
-  // Not a step with transforms tf no longer holds, nor (before the first) without the frames the
-  // scene follows.
-  // (replay_mode drive: the frames are the recording's, which has what it has.)
-  if ((b.running && !lagAllowsStep()) || (!replayDrive_ && driver_->stepIndex() == 0 && !followedFramesArrived())) {
+  // Not a step (before the first) without the frames the scene follows, nor with transforms tf no
+  // longer holds. The wait for the frames first: in real_time mode the run's time starts when they
+  // come, so the wait is not lag (the lag check first paused a node waiting for a frame after
+  // max_lag, blaming the lag). (replay_mode drive: the frames are the recording's, which has what
+  // it has.)
+  if ((!replayDrive_ && driver_->stepIndex() == 0 && !followedFramesArrived()) || (b.running && !lagAllowsStep())) {
     publishDiagnostics(false);
     control_->wait(0.01);
     return;

@@ -153,3 +153,42 @@ TEST(LiveChange, ObstacleEntriesThatContradictTheCommandAreRefused) {
   EXPECT_EQ(same->scene.obstacles[0].center, Eigen::Vector3d(0, 0, -1));
   EXPECT_FALSE(isLiveKey("obstacles.2.shape"));
 }
+
+// Issue 31: the run's energy scale is not inflated by the live change it checks. A 1 kg, 1 m
+// cloth hanging from two corners under symplectic Euler, made 1000 x stiffer after 1 s: at the same
+// shape StVK's strain energy is 1000 x (999 x of it booked as live work), about 98 J against the
+// cloth's own scale of weight x size = 1 kg x 9.81 m/s^2 x sqrt(2) m = 13.87 J. The run's scale
+// stays that 13.87 J, so every accepted step after the change keeps the net energy created within
+// 5 % of it, 0.694 J (the steps that would cross it are retried with more substeps). With the
+// change's 98 J in the scale, 5 % of it let the first steps create 1.65 and 1.94 J, accepted.
+TEST(LiveChange, AStiffeningDoesNotWidenTheRunsEnergyBound) {
+  YAML::Node doc = YAML::Load(kScene);
+  doc["mesh"] = YAML::Load("{type: grid, rows: 9, cols: 9, width: 1.0, height: 1.0}");
+  doc["material"]["youngs_modulus"] = 2.0e7;
+  doc["material"]["density"] = 2000.0;
+  doc["integrator"]["name"] = "symplectic_euler";
+  Simulation sim = build(doc);
+  steps(sim, 100);
+  const EnergyReport before = sim.simulator->energies();
+  const double mass = 2000.0 * 5.0e-4 * 1.0;  // density x thickness x area (kg)
+  const double scale = mass * 9.81 * std::sqrt(2.0);  // weight x diagonal of the rest mesh (J)
+  ASSERT_NEAR(before.energyScale, scale, 1e-12 * scale) << "the cloth held more than weight x size before";
+  Expected<LiveChange> change = applyLiveChange(doc, {"material.youngs_modulus=2.0e10"});
+  ASSERT_TRUE(change.ok()) << change.error();
+  Expected<Simulation> next = changeLive(sim, change->scene);
+  ASSERT_TRUE(next.ok()) << next.error();
+  Simulator& s = *next->simulator;
+  const EnergyReport after = s.energies();
+  EXPECT_NEAR(after.liveWork, 999.0 * before.strain, 1e-9 * after.liveWork);
+  ASSERT_GT(after.liveWork, 5.0 * scale);
+  EXPECT_NEAR(after.energyScale, scale, 1e-12 * scale);
+  const double bound = 0.05 * scale;
+  for (int k = 1; k <= 30; ++k) {
+    // Rolled back and retried with more substeps where the bound is crossed, as ever.
+    const StepReport r = s.step();
+    ASSERT_TRUE(r.ok) << "step " << k << " after the change: " << r.error;
+    const EnergyReport e = s.energies();
+    EXPECT_LE(e.balanceError, bound) << "step " << k << " after the change";
+    EXPECT_NEAR(e.energyScale, scale, 1e-12 * scale) << "step " << k << " after the change";
+  }
+}

@@ -131,6 +131,12 @@ class RunWriter {
   void write(const std::string& topic, const ros::Time& time, const M& message) {
     if (!path_.empty()) bag_.write(topic, time, message);
   }
+  /// Copies a message of another bag as it was recorded: topic, time and connection header (a
+  /// latched /tf_static stays latched for rosbag play).
+  void copy(const rosbag::MessageInstance& message) {
+    if (!path_.empty()) bag_.write(message.getTopic(), message.getTime(), message, message.getConnectionHeader());
+  }
+  bool writes() const { return !path_.empty(); }
   /// Closes and renames the bag into place.
   Status close();
 
