@@ -216,6 +216,32 @@ bool ClothNode::readLagLimits(std::string* error) {
   return true;
 }
 
+bool ClothNode::takeReplayTime(const RecordedRun& replay, double dt, std::string* error) {
+  if (replayDrive_) {
+    // The bag's timeline (its states', else from its start), as fem_cloth_sim --commands takes it.
+    Expected<Timeline> timeline = replayTimeline(&replay, dt);
+    if (!timeline) {
+      *error = "~replay_bag: " + timeline.error();
+      return false;
+    }
+    startTime_ = timeline->origin();
+    hasStartTime_ = true;
+    replayTimeline_ = *timeline;
+    if (!replay.frame.empty() && !private_.hasParam("frame_id")) frame_ = replay.frame;
+  } else if (!hasStartTime_) {
+    if (std::optional<ros::Time> epoch = runEpoch(replay, dt)) {
+      if (Expected<ros::Time> t = checkedTime(epoch->toSec(), "the time origin of ~replay_bag"); !t) {
+        *error = t.error();
+        return false;
+      }
+      startTime_ = *epoch;
+      hasStartTime_ = true;
+      replayTimeline_ = runTimeline(replay, dt);  // its pauses too
+    }
+  }
+  return true;
+}
+
 bool ClothNode::start(std::string* error) {
   if (!readParameters(error)) return false;
   tfBuffer_ = std::make_unique<tf2_ros::Buffer>(ros::Duration(tfCacheTime_));
@@ -258,28 +284,7 @@ bool ClothNode::start(std::string* error) {
   }
   for (const std::string& w : simulation->warnings) ROS_WARN_STREAM("fem_cloth_node: mesh: " << w);
 
-  if (replayDrive_) {
-    // The bag's timeline (its states', else from its start), as fem_cloth_sim --commands takes it.
-    Expected<Timeline> timeline = replayTimeline(&*replay, scene->dt);
-    if (!timeline) {
-      *error = "~replay_bag: " + timeline.error();
-      return false;
-    }
-    startTime_ = timeline->origin();
-    hasStartTime_ = true;
-    replayTimeline_ = *timeline;
-    if (!replay->frame.empty() && !private_.hasParam("frame_id")) frame_ = replay->frame;
-  } else if (replay && !hasStartTime_) {
-    if (std::optional<ros::Time> epoch = runEpoch(*replay, scene->dt)) {
-      if (Expected<ros::Time> t = checkedTime(epoch->toSec(), "the time origin of ~replay_bag"); !t) {
-        *error = t.error();
-        return false;
-      }
-      startTime_ = *epoch;
-      hasStartTime_ = true;
-      replayTimeline_ = runTimeline(*replay, scene->dt);  // its pauses too
-    }
-  }
+  if (replay && !takeReplayTime(*replay, scene->dt, error)) return false;
   DriverSettings settings;
   settings.frame = frame_;
   settings.tfTimeout = tfTimeout_;

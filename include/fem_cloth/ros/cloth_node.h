@@ -134,6 +134,9 @@ class ClothNode {
   void stepOnce();
   /// replay_mode drive: the replay of replay_bag from its start (at start-up and ~reset).
   bool openReplay(std::string* error);
+  /// The run's time origin and timeline from ~replay_bag (start()): the recording's states' in
+  /// replay_mode drive, else its epoch and pauses unless a start time was given.
+  bool takeReplayTime(const RecordedRun& replay, double dt, std::string* error);
   /// replay_mode drive, at the end of the recording: says once how the replay went, pauses, and
   /// answers a ~step or ~advance that the replay is over.
   void endOfReplay(const RunControl::Boundary& b);
