@@ -392,7 +392,11 @@ duration: 0.1
   rosbag::Bag in(plain), out(path, rosbag::bagmode::Write);
   out.setCompression(compression);
   out.setChunkThreshold(4096);  // several chunks: damage hits one of them
-  for (const rosbag::MessageInstance& m : rosbag::View(in)) out.write(m.getTopic(), m.getTime(), m);
+  // ~stats carries the steps' wall times: left in, the compressed recordings' layout, and with it
+  // where the seeded mutations land, changed from run to run (a crash seen in one run of three).
+  for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+    if (m.getTopic() != "/fem_cloth_node/stats") out.write(m.getTopic(), m.getTime(), m);
+  }
   for (int k = 0; k <= 10; ++k) {
     tf2_msgs::TFMessage tf;
     tf.transforms.resize(1);
