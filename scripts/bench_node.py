@@ -11,8 +11,12 @@ over a window of wall time:
 
 A benchmark, not a test: it prints figures and a verdict and exits 0 unless the node failed to run.
 
-  bench_node.py [--rows 129] [--seconds 20] [--rate 60] [--iterations 5]
-                [--scene config/hanging_cloth_fast.yaml] [--node PATH]
+  bench_node.py [--rows 129] [--seconds 20] [--rate 60] [--iterations N]
+                [--scene config/hanging_cloth_fast.yaml] [--node PATH] [--set KEY=VALUE ...]
+
+--iterations sets integrator.iterations (projective dynamics and XPBD only; the scene's own
+value when not given); --set passes any other scene key as the node's parameter (for example
+--set integrator.name=backward_euler --set material.model=stvk).
 
 The ~state messages are taken as raw bytes (rospy.AnyMsg): decoding 16641 Points 60 times a
 second in Python would cost more CPU than the simulation and disturb what is measured.
@@ -43,7 +47,10 @@ def main():
     parser.add_argument("--rows", type=int, default=129, help="grid rows = cols (default 129)")
     parser.add_argument("--seconds", type=float, default=20.0, help="measured wall time (s)")
     parser.add_argument("--rate", type=float, default=60.0, help="publish_rate (Hz)")
-    parser.add_argument("--iterations", type=int, default=5, help="integrator.iterations")
+    parser.add_argument("--iterations", type=int, default=None,
+                        help="integrator.iterations (projective_dynamics, xpbd; default: the scene's)")
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a scene key for the node, e.g. integrator.name=backward_euler (repeatable)")
     parser.add_argument("--scene", default=os.path.join(ROOT, "config", "hanging_cloth_fast.yaml"))
     parser.add_argument("--node", default=None, help="the fem_cloth_node binary")
     parser.add_argument("--log-dir", default=None, help="where roscore and node logs go")
@@ -71,8 +78,14 @@ def main():
 
         command = [node_bin, "__name:=cloth", "_scene_file:=" + args.scene,
                    "_mesh/rows:=%d" % args.rows, "_mesh/cols:=%d" % args.rows,
-                   "_integrator/iterations:=%d" % args.iterations,
                    "_publish_rate:=%g" % args.rate]
+        if args.iterations is not None:
+            command.append("_integrator/iterations:=%d" % args.iterations)
+        for item in args.set:
+            key, sep, value = item.partition("=")
+            if not sep or not key:
+                sys.exit("bench_node: --set wants KEY=VALUE, got %r" % item)
+            command.append("_%s:=%s" % (key.replace(".", "/"), value))
         print("== %s" % " ".join(os.path.relpath(c, ROOT) if c.startswith(ROOT) else c for c in command))
         node = subprocess.Popen(command, env=env, start_new_session=True,
                                 stdout=open(os.path.join(log_dir, "node.log"), "w"),
@@ -139,8 +152,11 @@ def main():
     elapsed = arrivals[-1][0] - arrivals[0][0]
     integrator = stats[-1][3] if stats else "?"
     dt = stats[-1][4] if stats else float("nan")
-    print("node, %dx%d cloth (%d vertices), %s, %d iterations, dt %.4g s, publish_rate %g Hz, %.0f s measured"
-          % (args.rows, args.rows, args.rows * args.rows, integrator, args.iterations, dt, args.rate, window))
+    settings = "".join(", %s" % s for s in args.set)
+    if args.iterations is not None:
+        settings += ", %d iterations" % args.iterations
+    print("node, %dx%d cloth (%d vertices), %s%s, dt %.4g s, publish_rate %g Hz, %.0f s measured"
+          % (args.rows, args.rows, args.rows * args.rows, integrator, settings, dt, args.rate, window))
     print("  ~state received          %.1f /s (requested %g)" % (rate, args.rate))
     print("  simulated / wall time    %.3f" % (simulated / elapsed))
     print("  lag (arrival - stamp)    mean %.1f ms, first %.1f ms, last %.1f ms, max %.1f ms"

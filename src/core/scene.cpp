@@ -757,6 +757,7 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   settings.dt = scene.dt;
   settings.minSubsteps = scene.substeps;
   settings.maxRetries = scene.maxRetries;
+  settings.acceptance.displacement = scene.displacement;
   sim.simulator = std::make_unique<Simulator>(sim.model, (*findIntegrator(scene.integrator))->make(scene), settings);
   if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
   Simulator& simulator = *sim.simulator;

@@ -186,7 +186,7 @@ struct WorkPrecisionFiles {
           "rollbacks,rms_end,max_end,rms_over_time,max_over_time,balance_end,balance_max_abs,"
           "energy_scale_j,max_stretch,max_stretch_reference,error\n";
     overTime << "scene,label,dt,t,rms,max\n";
-    refs << "scene,description,dt,cfl_bound_s,omega_max,newton_tolerance,duration,samples,cloth_size_m,wall_s,cached,key,"
+    refs << "scene,description,dt,cfl_bound_s,omega_max,error_ratio,duration,samples,cloth_size_m,wall_s,cached,key,"
             "check_dt,check_rms_end,check_rms_over_time,check_max_over_time,max_stretch,balance_end\n";
     orders << "scene,label,integrator,points,order_rms_end,order_rms_over_time,order_finest,"
               "pairwise_rms_end\n";
@@ -365,7 +365,9 @@ class WorkPrecisionStudy {
     for (const double refDt : {referenceDt, 2.0 * referenceDt}) {
       report(s.name + " reference dt " + num(refDt, 3));
       Expected<RunRequest> req = runRequest(opt_, s, {"integrator.name=bdf2", setting("integrator.dt", refDt),
-                                                      setting("integrator.newton_tolerance", s.referenceTolerance)});
+                                                      setting("integrator.error_ratio", s.referenceErrorRatio),
+                                                      setting("integrator.error_cap", s.referenceErrorRatio),
+                                                      "integrator.error_floor=1e-9"});
       if (!req) {
         std::cerr << "fem_cloth_report: " << s.name << ": " << req.error() << '\n';
         return 2;
@@ -391,7 +393,7 @@ class WorkPrecisionStudy {
     }
     const RunResult& R = reference->run;
     files_.refs << s.name << ',' << csvText(s.description) << ',' << num(referenceDt, 17) << ','
-                << num(cfl) << ',' << num(2.0 / cfl) << ',' << s.referenceTolerance << ',' << s.duration << ','
+                << num(cfl) << ',' << num(2.0 / cfl) << ',' << s.referenceErrorRatio << ',' << s.duration << ','
                 << R.samples.size() << ',' << num(R.clothSize) << ',' << num(R.wall) << ','
                 << (reference->cached ? 1 : 0) << ',' << reference->key << ',' << num(2 * referenceDt, 17) << ','
                 << num(checkErrors[0]) << ',' << num(checkErrors[1]) << ',' << num(checkErrors[2]) << ','

@@ -68,9 +68,11 @@ struct Totals {
   std::uint64_t localIterations = 0;  // XPBD sweeps, projective dynamics iterations
   std::uint64_t backtracks = 0;
   std::uint64_t rollbacks = 0;
+  std::uint64_t tightened = 0;  // of the rollbacks: re-solved 100x tighter (Simulator::step)
   std::uint64_t substeps = 0;
   std::uint64_t failures = 0;
   double maxResidual = 0.0;
+  DisplacementError worstError;  // acceptance test (a) in displacement (implicit steppers)
   NewtonTimes newtonTimes;
   double minAreaRatio = std::numeric_limits<double>::infinity();
   double maxStretch = -std::numeric_limits<double>::infinity();
@@ -83,10 +85,23 @@ struct Totals {
     backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
     newtonTimes += r.newtonTimes;
     rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+    tightened += static_cast<std::uint64_t>(r.tightened);
     substeps += static_cast<std::uint64_t>(r.substeps);
     maxResidual = std::max(maxResidual, r.residual);
+    worstError.merge(r.displacement);
   }
 };
+
+/// The implicit steppers' error line: the worst displacement error of the accepted steps beside
+/// the step's own truncation error there (acceptance test (a)); empty when none was measured.
+std::string errorLine(const DisplacementError& e) {
+  if (!e.measured()) return "";
+  std::ostringstream line;
+  line << "error:        displacement error at most " << 100.0 * e.relative
+       << " % of its tolerance: vertex " << e.vertex << ", " << e.error << " m against the step's truncation error "
+       << e.truncation << " m there (tolerance " << e.tolerance << " m); largest " << e.largest << " m\n";
+  return line.str();
+}
 
 /// Where the Newton solves' time went (NewtonTimes): the profile of an implicit run.
 std::string newtonTimeLine(const NewtonTimes& t, std::uint64_t iterations) {
@@ -445,10 +460,12 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
   } else {
     summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
             << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
-            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks
-            << " rollbacks, " << totals.failures << " failures\n";
+            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks << " rollbacks";
+    if (totals.tightened > 0) summary << " (" << totals.tightened << " re-solved 100x tighter)";
+    summary << ", " << totals.failures << " failures\n";
     summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations);
   }
+  summary << errorLine(totals.worstError);
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
   warnAboutBalance(balance);
@@ -511,6 +528,13 @@ Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps,
   return out;
 }
 
+// The worst displacement error of the accepted steps (m; null when not measured).
+Json displacementErrorJson(const DisplacementError& e) {
+  if (!e.measured()) return nullptr;
+  return Json{{"relative", e.relative}, {"error", e.error}, {"truncation", e.truncation},
+              {"tolerance", e.tolerance}, {"vertex", e.vertex}, {"largest", e.largest}};
+}
+
 // The summary of a scene run for --summary-json.
 Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals, std::uint64_t totalSteps,
                   const Stepped& stepped, const EdgeStretch& st, const Json& files) {
@@ -528,6 +552,8 @@ Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals
               {"balance", balanceJson(e, balance)},
               {"stretch", {{"mean", st.mean}, {"max", st.max}, {"max_over_run", totals.maxStretch}}},
               {"min_area_ratio", totals.minAreaRatio},
+              {"max_residual", totals.maxResidual},
+              {"displacement_error", displacementErrorJson(totals.worstError)},
               {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
               {"outputs", files}};
 }

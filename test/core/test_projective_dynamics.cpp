@@ -33,7 +33,8 @@ std::vector<std::string> arap(const std::string& integrator, std::vector<std::st
 // monotone local/global iteration, backward Euler by Newton (to a tight tolerance).
 static double gapAfterOneStep(const std::string& dt, int iterations) {
   Expected<Simulation> pd = build(arap("projective_dynamics", {"integrator.dt=" + dt, "integrator.iterations=" + std::to_string(iterations)}));
-  Expected<Simulation> be = build(arap("backward_euler", {"integrator.dt=" + dt, "integrator.newton_tolerance=1e-12"}));
+  Expected<Simulation> be = build(arap("backward_euler", {"integrator.dt=" + dt, "integrator.error_ratio=1e-6",
+                                                           "integrator.error_cap=1e-6", "integrator.error_floor=1e-12"}));
   EXPECT_TRUE(pd.ok() && be.ok());
   EXPECT_TRUE(pd->simulator->step().ok);
   EXPECT_TRUE(be->simulator->step().ok);

@@ -47,7 +47,8 @@ const RunResult& reference(const AccuracyScene& s) {
   const double cfl = *cflBound(*withOverrides(s.document, {"integrator.name=bdf2"}));
   const double target = std::min(s.referenceDt, 0.25 * cfl);
   const double dt = s.sampleInterval / (2.0 * std::ceil(0.5 * s.sampleInterval / target));
-  RunResult r = runWith(s, {"integrator.name=bdf2", setting("integrator.newton_tolerance", 1e-7)}, dt);
+  RunResult r = runWith(s, {"integrator.name=bdf2", "integrator.error_ratio=1e-4", "integrator.error_cap=1e-4",
+                                  "integrator.error_floor=1e-9"}, dt);
   EXPECT_EQ(r.outcome, RunResult::Outcome::Completed) << r.error;
   return cache.emplace(s.name, std::move(r)).first->second;
 }
@@ -166,8 +167,8 @@ TEST(Claims, PositionsDivergeAfterTheClothFolds) {
   AccuracyScene s = scene("hanging_long");
   s.document = *withOverrides(s.document, {"mesh.rows=9", "mesh.cols=9"});
   const double dt = s.sampleInterval / 64.0;
-  const RunResult a = runWith(s, {"integrator.name=bdf2", "integrator.newton_tolerance=1e-7"}, dt);
-  const RunResult b = runWith(s, {"integrator.name=bdf2", "integrator.newton_tolerance=1e-7"}, 2.0 * dt);
+  const RunResult a = runWith(s, {"integrator.name=bdf2", "integrator.error_ratio=1e-4", "integrator.error_cap=1e-4"}, dt);
+  const RunResult b = runWith(s, {"integrator.name=bdf2", "integrator.error_ratio=1e-4", "integrator.error_cap=1e-4"}, 2.0 * dt);
   const PositionErrors e = positionErrors(b.samples, a.samples, a.dim, a.clothSize);
   const double early = e.rms[6], late = e.rms.back();  // t = 0.2 s and 1 s
   std::cout << "BDF2 at dt vs 2 dt: " << early << " at 0.2 s, " << late << " at 1 s\n";
@@ -422,7 +423,7 @@ TEST(Claims, ProjectiveDynamicsEndsAtBackwardEulerWhateverItsIterations) {
   const AccuracyScene& s = scene("hanging_arap");
   const double dt = 1.0 / 60.0;
   const RunResult& ref = reference(s);
-  const RunResult be = runWith(s, {"integrator.name=backward_euler", "integrator.newton_tolerance=1e-7"}, dt);
+  const RunResult be = runWith(s, {"integrator.name=backward_euler", "integrator.error_ratio=1e-4", "integrator.error_cap=1e-4"}, dt);
   ASSERT_EQ(be.outcome, RunResult::Outcome::Completed) << be.error;
   const double beError = positionErrors(be.samples, ref.samples, ref.dim, ref.clothSize).rmsEnd;
   for (int iterations : {5, 10, 20}) {

@@ -137,6 +137,9 @@ struct Scene {
   int substeps = 1;
   int maxRetries = 4;
   NewtonSettings newton;
+  /// Acceptance test (a) of the implicit steppers (integrator.error_ratio, error_cap,
+  /// error_floor; the floor in cloth sizes).
+  DisplacementTolerance displacement;
   int iterations = 10;  ///< xpbd: Gauss-Seidel sweeps; projective_dynamics: local/global iterations
   /// Keys of one integrator alone (symplectic_euler's auto_substep and cfl_safety,
   /// projective_dynamics' chebyshev_rho), in settings its registry entry defines (registry.h).

@@ -265,6 +265,8 @@ class Simulator {
   /// (EnergyStep{}: the account's own).
   double runEnergyScale(const EnergyStep& step) const;
   double sizeScale_ = 0.0;  // total weight x bounding-box diagonal of the rest mesh (J)
+  bool energyRefused_ = false;  // the last accept() failed an energy test (b)
+  double lengthScale_ = 0.0;  // bounding-box diagonal of the rest mesh (m)
   // Substep adaptivity: a step that needed more substeps than the minimum sets the count the
   // next steps start with; after kRelaxAfter clean steps the count is halved again.
   int currentSubsteps_ = 1;

@@ -55,7 +55,9 @@ struct AccuracyScene {
   /// Upper bound of the reference's step (s); the report also keeps it below a quarter of the
   /// scene's CFL bound, so that the reference resolves every mode of the mesh.
   double referenceDt = 0.0;
-  double referenceTolerance = 1e-6;  ///< its newton_tolerance (cloth sizes per second)
+  /// Its integrator.error_ratio and error_cap (acceptance test (a) in displacement): Newton
+  /// converged to this fraction of the step's own truncation error, and of each vertex's motion.
+  double referenceErrorRatio = 1e-4;
   /// The step commands are stamped on (s; 0: none): every step of the study, the reference's
   /// included, divides it, so a command takes effect at the same time in every run.
   double commandGrid = 0.0;

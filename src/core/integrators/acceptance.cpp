@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "fem_cloth/core/integrators/integrator.h"
@@ -50,7 +51,109 @@ ForceResidual measureResidual(const VectorX& residual, const VectorX& mass,
   return out;
 }
 
+double truncationEstimate(const SubstepMotion& motion, Index vertex, int dim) {
+  const VectorX& v0 = *motion.vStart;
+  const VectorX& v1 = *motion.vEnd;
+  double sum = 0.0;
+  for (int k = 0; k < dim; ++k) {
+    const Index i = dim * vertex + k;
+    const double change = motion.vBefore != nullptr ? v1[i] - 2.0 * v0[i] + (*motion.vBefore)[i]
+                                                    : v1[i] - v0[i];
+    sum += change * change;
+  }
+  const double factor = motion.vBefore != nullptr ? 2.0 / 9.0 : 0.5;
+  return factor * motion.h * std::sqrt(sum);
+}
+
+void DisplacementError::merge(const DisplacementError& other) {
+  if (!other.measured()) return;
+  const double largestSoFar = std::max(largest, other.largest);
+  const double energyRatio = energy / energyTolerance, otherEnergyRatio = other.energy / other.energyTolerance;
+  const double energySoFar = energy, energyToleranceSoFar = energyTolerance;
+  const bool hadOne = measured();
+  if (worse(other.relative, relative, hadOne)) *this = other;
+  largest = std::isnan(other.largest) ? other.largest : largestSoFar;
+  // The energy part: the worse ratio of the two, wherever it is.
+  if (hadOne && !worse(otherEnergyRatio, energyRatio, true)) {
+    energy = energySoFar;
+    energyTolerance = energyToleranceSoFar;
+  } else {
+    energy = other.energy;
+    energyTolerance = other.energyTolerance;
+  }
+}
+
+void DisplacementError::scale(double factor) {
+  if (!measured()) return;
+  if (std::isinf(factor)) {
+    relative = std::numeric_limits<double>::infinity();
+    return;
+  }
+  relative *= factor;
+  error *= factor;
+  largest *= factor;
+  energy *= factor;
+}
+
+double remainingErrorFactor(double correction, double moved) {
+  if (!(moved > 0.0)) return 1.0;
+  const double theta = correction / moved;
+  return theta < 1.0 ? 1.0 / (1.0 - theta) : std::numeric_limits<double>::infinity();
+}
+
+DisplacementError measureDisplacementError(const VectorX& dx, const SubstepMotion& motion,
+                                           const std::vector<char>& pinned, int dim,
+                                           const DisplacementTolerance& tolerance) {
+  DisplacementError out;
+  const VectorX& x0 = *motion.xStart;
+  const VectorX& x1 = *motion.xEnd;
+  const Index vertices = dx.size() / dim;
+  for (Index v = 0; v < vertices; ++v) {
+    if (pinned[dim * v]) continue;
+    double error2 = 0.0, motion2 = 0.0;
+    for (int k = 0; k < dim; ++k) {
+      const Index i = dim * v + k;
+      error2 += dx[i] * dx[i];
+      motion2 += (x1[i] - x0[i]) * (x1[i] - x0[i]);
+    }
+    const double error = std::sqrt(error2), moved = std::sqrt(motion2);
+    const double tau = truncationEstimate(motion, v, dim);
+    const double bound = std::min(tolerance.ratio * tau, tolerance.cap * moved) + tolerance.floor;
+    const double relative = error / bound;
+    out.largest = std::isnan(error) ? error : std::max(out.largest, error);
+    if (worse(relative, out.relative, out.measured())) {
+      out.relative = relative;
+      out.error = error;
+      out.tolerance = bound;
+      out.truncation = tau;
+      out.motion = moved;
+      out.vertex = v;
+    }
+  }
+  return out;
+}
+
 Status StepAcceptance::converged(const StepReport& report, int dim) const {
+  const DisplacementError& e = report.displacement;
+  if (e.measured()) {
+    if (e.within()) return Status::success();
+    const DisplacementTolerance& t = settings_.displacement;
+    std::ostringstream msg;
+    if (e.relative <= 1.0) {
+      msg << "not converged: the correction the solver's matrix makes of its unbalanced force would change the "
+          << "step's energy by " << e.energy << " J, above its tolerance " << e.energyTolerance << " J ("
+          << t.ratio << " x the energy test's bound); largest unbalanced force " << report.unbalanced.largest
+          << " N (a smaller dt or more integrator.substeps may help)";
+      return Error{msg.str()};
+    }
+    msg << "not converged: vertex " << e.vertex << " is left with a displacement error of " << e.error
+        << " m (the correction the solver's matrix makes of its unbalanced force), above its tolerance "
+        << e.tolerance << " m (" << t.ratio << " x the step's truncation error there, " << e.truncation
+        << " m, at most " << 100.0 * t.cap << " % of its motion " << e.motion
+        << " m, plus the floor); largest unbalanced force " << report.unbalanced.largest
+        << " N (a smaller dt or more integrator.substeps may help)";
+    return Error{msg.str()};
+  }
   const ForceResidual& r = report.unbalanced;
   if (r.dof < 0 || r.relative <= settings_.forceTolerance) return Status::success();
   std::ostringstream msg;

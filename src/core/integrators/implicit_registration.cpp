@@ -20,7 +20,9 @@ IntegratorEntry implicitEntry(ImplicitScheme scheme) {
   e.supports.needsHessian = true;
   e.keys = {"max_newton_iterations", "newton_tolerance", "max_backtracks", "linear_solver",
             "cg_tolerance", "cg_max_iterations"};
+  e.keys.insert(e.keys.end(), displacementErrorKeys().begin(), displacementErrorKeys().end());
   e.read = [](const SettingsReader& r, Scene& s) -> Status {
+    FEM_CLOTH_CHECK(readDisplacementTolerance(r, s));
     FEM_CLOTH_CHECK(r.integer("max_newton_iterations", s.newton.maxIterations));
     FEM_CLOTH_CHECK(r.number("newton_tolerance", s.newton.tolerance));
     FEM_CLOTH_CHECK(r.integer("max_backtracks", s.newton.maxBacktracks));
@@ -33,15 +35,8 @@ IntegratorEntry implicitEntry(ImplicitScheme scheme) {
     return r.integer("cg_max_iterations", s.newton.linear.cgMaxIterations);
   };
   e.check = [](const Scene& s) -> Status {
-    // A step converges when a full Newton step is short; the first one, from the prediction,
-    // almost never is (under gravity it moves g h^2). With a cap of 1 every step is rolled
-    // back and substepped: the run is two orders of magnitude slower, not faster.
-    if (s.newton.maxIterations == 1) {
-      return Error{"integrator.max_newton_iterations must be at least 2, got 1: a step converges only when "
-                   "a Newton step is short, which the first almost never is, so every step would be "
-                   "rolled back and substepped"};
-    }
-    FEM_CLOTH_CHECK(countInRange(s.newton.maxIterations, 2, 10'000, "integrator.max_newton_iterations"));
+    FEM_CLOTH_CHECK(checkDisplacementTolerance(s));
+    FEM_CLOTH_CHECK(countInRange(s.newton.maxIterations, 1, 10'000, "integrator.max_newton_iterations"));
     FEM_CLOTH_CHECK(inRange(s.newton.tolerance, 1e-12, 10.0, "integrator.newton_tolerance", "1/s"));
     FEM_CLOTH_CHECK(countInRange(s.newton.maxBacktracks, 0, 200, "integrator.max_backtracks"));
     FEM_CLOTH_CHECK(inRange(s.newton.linear.cgTolerance, 1e-16, 0.1, "integrator.cg_tolerance", ""));

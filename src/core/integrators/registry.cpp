@@ -87,6 +87,23 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
 
 }  // namespace
 
+const std::vector<std::string>& displacementErrorKeys() {
+  static const std::vector<std::string> keys = {"error_ratio", "error_cap", "error_floor"};
+  return keys;
+}
+
+Status readDisplacementTolerance(const SettingsReader& r, Scene& s) {
+  FEM_CLOTH_CHECK(r.number("error_ratio", s.displacement.ratio));
+  FEM_CLOTH_CHECK(r.number("error_cap", s.displacement.cap));
+  return r.number("error_floor", s.displacement.floor);
+}
+
+Status checkDisplacementTolerance(const Scene& s) {
+  FEM_CLOTH_CHECK(inRange(s.displacement.ratio, 1e-6, 1.0, "integrator.error_ratio", ""));
+  FEM_CLOTH_CHECK(inRange(s.displacement.cap, 1e-6, 0.5, "integrator.error_cap", ""));
+  return inRange(s.displacement.floor, 1e-12, 1e-2, "integrator.error_floor", "cloth sizes");
+}
+
 Expected<const IntegratorEntry*> findIntegrator(const std::string& name) {
   for (const IntegratorEntry& e : integratorRegistry()) {
     if (e.name == name) return &e;

@@ -47,6 +47,24 @@ double NewtonSolver::relativeGradient(const NewtonProblem& problem, const Vector
   return worst / problem.potential->c2();
 }
 
+bool NewtonSolver::converged(const NewtonProblem& problem, const NewtonIterate& it, double moved,
+                             NewtonOutcome& outcome) {
+  Clock::time_point clock = Clock::now();
+  const std::vector<char>& pinned = *problem.pinned;
+  rhs_ = -it.gradient;
+  for (Index i = 0; i < rhs_.size(); ++i) {
+    if (pinned[i]) rhs_[i] = 0.0;
+  }
+  correction_.setZero(rhs_.size());
+  const bool solved = solver_->solve(rhs_, correction_);
+  lap(clock, outcome.times.solve);
+  if (!solved) return false;
+  // Where Newton converges only linearly, the corrections still to come add up (acceptance.h).
+  outcome.displacement = problem.error(it, correction_);
+  outcome.displacement.scale(remainingErrorFactor(correction_.norm(), moved));
+  return outcome.displacement.within();
+}
+
 bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate& it, NewtonTimes& times) {
   Clock::time_point clock = Clock::now();
   const std::vector<char>& pinned = *problem.pinned;
@@ -88,12 +106,20 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     outcome.forces = true;
     return outcome;
   };
-  auto balanced = [&]() { return problem.residual(it).relative <= problem.residualTolerance; };
   while (true) {
     if (outcome.iterations >= settings_.maxIterations) {
       std::ostringstream msg;
       msg << "Newton did not converge in " << outcome.iterations << " iterations (last step "
-          << lastStep / h << " m/s, tolerance " << stepTolerance / h << " m/s)";
+          << lastStep / h << " m/s";
+      const DisplacementError& e = outcome.displacement;
+      if (e.measured() && !(e.relative <= 1.0)) {
+        msg << "; vertex " << e.vertex << " is left with a displacement error of " << e.error
+            << " m against its tolerance " << e.tolerance << " m";
+      } else if (e.measured()) {
+        msg << "; the correction left would change the step's energy by " << e.energy << " J against its tolerance "
+            << e.energyTolerance << " J";
+      }
+      msg << ")";
       return fail(msg.str());
     }
     ++outcome.iterations;
@@ -109,9 +135,8 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     const double maxStep = search_.bound(potential, it.x, dx_).whole;
     lap(clock, outcome.times.bound);
     if (stepLength <= stepTolerance && maxStep >= 1.0) {
-      // A Newton step shorter than the tolerance: the error left is below it. Take the step (if
-      // it stays in the domain), without a line search, whose test would only compare round-off;
-      // stop if the forces balance.
+      // A Newton step shorter than the tolerance: take it (if it stays in the domain) without a
+      // line search, whose test would only compare round-off; stop if the error is small.
       TermsEvaluation trial;
       if (search_.evaluateFullStep(potential, it, dx_, trial)) {
         it.terms = trial;
@@ -119,7 +144,7 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
         it.phi = potential.value(it.x, it.terms);
       }
       lap(clock, outcome.times.search);
-      if (balanced()) break;
+      if (converged(problem, it, dx_.norm(), outcome)) break;
       continue;
     }
     const LineSearch::Outcome found = search_.search(
@@ -127,15 +152,14 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     outcome.backtracks += found.backtracks;
     lap(clock, outcome.times.search);
     if (!found.moved) {
-      // No measurable decrease of Phi: at its minimum to round-off, if the forces balance.
-      if (balanced()) break;
+      // No measurable decrease of Phi: at its minimum to round-off, if the error is small.
+      if (converged(problem, it, 0.0, outcome)) break;
       std::ostringstream msg;
       msg << "the line search found no decrease of the incremental potential after "
           << settings_.maxBacktracks << " backtracks";
       return fail(msg.str());
     }
-    // A full Newton step that was already short: converged without another solve.
-    if (found.fraction == 1.0 && stepLength <= stepTolerance && balanced()) break;
+    if (converged(problem, it, found.fraction * dx_.norm(), outcome)) break;
   }
   if (!it.x.allFinite()) {
     outcome.ok = false;

@@ -65,7 +65,10 @@ class ImplicitIntegrator final : public Integrator {
   bool startingPoint(const StepInput& input, const State& state, int remaining, StepReport& report);
   /// Newton's iterations until converged; false (report.error set) if they fail.
   bool solve(const StepInput& input, const State& state, double h, StepReport& report);
-  /// Acceptance test (a) at an iterate: the unbalanced forces dPhi/dx / c^2 against their scale.
+  /// Acceptance test (a) at an iterate whose remaining Newton correction is dx.
+  DisplacementError displacementError(const StepInput& input, const State& state, double h,
+                                      const NewtonIterate& it, const VectorX& dx);
+  /// The unbalanced forces dPhi/dx / c^2 at an iterate against their scale (reported).
   ForceResidual residual(const StepInput& input, const State& state, double h,
                          const NewtonIterate& it);
   std::string residualText(const ForceResidual& r) const;

@@ -89,6 +89,12 @@ struct StepInput {
   /// What the unbalanced forces a solver leaves are measured against (acceptance.h, test (a)):
   /// iterative solvers iterate until measureResidual() is within the tolerance.
   ResidualScale residualScale;
+  /// The implicit steppers' test (a) in displacement (acceptance.h), its floor in metres.
+  DisplacementTolerance displacement;
+  /// The energy acceptance test (b) lets the whole step create at least (J; Simulator::step
+  /// sets it): test (a) also bounds the energy the remaining correction would change by
+  /// displacement.ratio x this, shared over the substeps.
+  double energyBudget = std::numeric_limits<double>::infinity();
 };
 
 /// Where a Newton solve's time went (s of wall time, steady clock): what scripts/bench and
@@ -125,10 +131,17 @@ struct StepReport {
   /// The unbalanced force the solver left (acceptance test (a)), the worst over the substeps;
   /// zero for symplectic Euler, which solves no equation.
   ForceResidual unbalanced;
+  /// The implicit steppers' error in displacement (acceptance test (a)), the worst over the
+  /// substeps; not measured by the others.
+  DisplacementError displacement;
   double residual = 0.0;   ///< largest unbalanced force (N, over free DOFs): unbalanced.largest
   int lineSearchBacktracks = 0;
   NewtonTimes newtonTimes;  ///< implicit steppers: where the Newton solves' time went
   int rollbacks = 0;       ///< failed attempts that were undone and retried
+  /// Of those, the ones retried with the same substeps and a 100x tighter test (a): a step
+  /// within test (a) that test (b) refused as creating energy (Simulator::step).
+  int tightened = 0;
+  bool energyRefused = false;  ///< the attempt failed test (b), energy created
   int iterations = 0;  ///< local solver iterations (XPBD sweeps, projective dynamics iterations)
   double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
   /// Work of the pins on the cloth in this step (J): each substep's pin force (the one its

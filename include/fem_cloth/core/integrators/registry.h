@@ -88,6 +88,12 @@ struct IntegratorEntry {
   std::function<std::unique_ptr<Integrator>(const Scene&)> make;
 };
 
+/// The keys of acceptance test (a) in displacement (acceptance.h), which the integrators that
+/// measure it (backward_euler, bdf2) list among theirs, read and check.
+const std::vector<std::string>& displacementErrorKeys();
+Status readDisplacementTolerance(const SettingsReader& reader, Scene& scene);
+Status checkDisplacementTolerance(const Scene& scene);
+
 /// Every integrator, in a fixed order (symplectic_euler, backward_euler, bdf2, xpbd,
 /// projective_dynamics).
 const std::vector<IntegratorEntry>& integratorRegistry();

@@ -9,10 +9,15 @@
 // their rows and columns become the identity (scaled by their mass) with zero right-hand side,
 // which keeps the matrix pattern, and so the symbolic factorisation, fixed while pins come and go.
 //
-// Convergence needs both (a) the Newton-decrement criterion of Li et al., "Incremental Potential
-// Contact", 2020: Newton converges quadratically, so the length of the last full step bounds the
-// remaining error; and (b) balanced forces, which the caller measures (acceptance test (a)).
-// A failed solve leaves the iterate where it stopped: the caller rolls back.
+// Converged when the error left is small enough for the caller (acceptance test (a) in
+// displacement): after each move the factorisation in hand (the Hessian of the iterate before)
+// turns the gradient at the new iterate into the correction dx = -H^-1 dPhi/dx that Newton would
+// make next, which is the distance to the minimum to first order (Newton converges
+// quadratically, so H of the iterate before serves as well as its own) and costs one pair of
+// triangular solves, not a factorisation. Where the iterations converge only linearly, the
+// correction is scaled by 1 / (1 - theta), theta its ratio to the move before
+// (remainingErrorFactor()). A failed solve leaves the iterate where it stopped: the
+// caller rolls back.
 #pragma once
 
 #include <functional>
@@ -29,11 +34,9 @@ namespace fem_cloth {
 
 struct NewtonSettings {
   int maxIterations = 50;
-  /// Converged when the last full Newton step, as a velocity |dx|_inf / h, is below
-  /// tolerance x the rest bounding-box diagonal (a velocity error in cloth sizes per second)
-  /// and the forces are balanced (acceptance test (a), StepInput::residualScale).
-  /// The default, 1e-3, allows 1.4e-5 m per 0.01 s step on a 1 m cloth: far below backward
-  /// Euler's own truncation error (about g h^2 / 2 = 5e-4 m).
+  /// A Newton step shorter than tolerance x the rest bounding-box diagonal x h (a velocity in
+  /// cloth sizes per second; 1.4e-5 m per 0.01 s step on a 1 m cloth) is taken whole, without a
+  /// line search, whose test of Phi would compare round-off there.
   double tolerance = 1e-3;
   int maxBacktracks = 40;
   double armijo = 1e-4;  ///< sufficient-decrease constant of the line search
@@ -47,16 +50,17 @@ struct NewtonProblem {
   IncrementalPotential* potential = nullptr;
   SparseHessian* hessian = nullptr;            ///< the Model's pattern, assembled into
   const std::vector<char>* pinned = nullptr;  ///< per DOF: eliminated (keeps its value)
-  double stepTolerance = 0.0;                 ///< m: criterion (a)
-  /// Criterion (b): the unbalanced forces at an iterate, and the largest relative one allowed.
-  std::function<ForceResidual(const NewtonIterate&)> residual;
-  double residualTolerance = 0.0;
+  double stepTolerance = 0.0;                 ///< m: NewtonSettings::tolerance
+  /// The error of an iterate whose remaining correction (per DOF, zero on pinned ones) is dx:
+  /// converged when its relative value is at most 1.
+  std::function<DisplacementError(const NewtonIterate&, const VectorX& dx)> error;
 };
 
 struct NewtonOutcome {
   bool ok = true;
   std::string error;      ///< why it failed
   bool forces = false;    ///< the failure is about unbalanced forces: report them with it
+  DisplacementError displacement;  ///< the error last measured (not measured: no move yet)
   int iterations = 0;
   int backtracks = 0;
   NewtonTimes times;
@@ -78,13 +82,16 @@ class NewtonSolver {
  private:
   /// Assembles the system at it.x and solves it for dx_.
   bool newtonStep(const NewtonProblem& problem, const NewtonIterate& it, NewtonTimes& times);
+  /// The error at `it` by the factorisation in hand (into outcome.displacement), the move that
+  /// reached `it` being `moved` long (m, 2-norm; 0: none); true if small enough.
+  bool converged(const NewtonProblem& problem, const NewtonIterate& it, double moved, NewtonOutcome& outcome);
   /// Largest |g_i| / (m_i g c^2) over free DOFs: the merit of the round-off fallback.
   double relativeGradient(const NewtonProblem& problem, const VectorX& g) const;
 
   NewtonSettings settings_;
   std::unique_ptr<LinearSolver> solver_;
   LineSearch search_;
-  VectorX dx_, rhs_;
+  VectorX dx_, rhs_, correction_;
   std::vector<Eigen::Triplet<double>> outsidePattern_;
   LinearSolver::Matrix extra_, system_;
 };
