@@ -429,6 +429,8 @@ namespace {
 void takeAttempt(StepReport& total, const StepReport& r) {
   total.substeps = r.substeps;
   total.newtonIterations += r.newtonIterations;
+  total.quasiNewtonIterations += r.quasiNewtonIterations;
+  total.solverFallbacks += r.solverFallbacks;
   total.lineSearchBacktracks += r.lineSearchBacktracks;
   total.newtonTimes += r.newtonTimes;
   total.iterations += r.iterations;

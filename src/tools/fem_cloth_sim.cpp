@@ -65,6 +65,8 @@ std::string oneLine(const std::string& text) { return printableText(text, 2000);
 struct Totals {
   std::uint64_t steps = 0;
   std::uint64_t newtonIterations = 0;
+  std::uint64_t quasiNewtonIterations = 0;  // integrator.solver: lbfgs
+  std::uint64_t solverFallbacks = 0;        // of its substeps, the ones Newton finished
   std::uint64_t localIterations = 0;  // XPBD sweeps, projective dynamics iterations
   std::uint64_t backtracks = 0;
   std::uint64_t rollbacks = 0;
@@ -81,6 +83,8 @@ struct Totals {
   void addStep(const StepReport& r) {
     ++steps;
     newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
+    quasiNewtonIterations += static_cast<std::uint64_t>(r.quasiNewtonIterations);
+    solverFallbacks += static_cast<std::uint64_t>(r.solverFallbacks);
     localIterations += static_cast<std::uint64_t>(r.iterations);
     backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
     newtonTimes += r.newtonTimes;
@@ -458,12 +462,17 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
     summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
             << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
   } else {
-    summary << "solver:       " << totals.newtonIterations << " Newton iterations ("
+    summary << "solver:       ";
+    if (totals.quasiNewtonIterations > 0) {
+      summary << totals.quasiNewtonIterations << " L-BFGS iterations (" << perStep(totals.quasiNewtonIterations)
+              << " per step), " << totals.solverFallbacks << " substeps fell back to Newton, ";
+    }
+    summary << totals.newtonIterations << " Newton iterations ("
             << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
             << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks << " rollbacks";
     if (totals.tightened > 0) summary << " (" << totals.tightened << " re-solved 100x tighter)";
     summary << ", " << totals.failures << " failures\n";
-    summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations);
+    summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations + totals.quasiNewtonIterations);
   }
   summary << errorLine(totals.worstError);
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";

@@ -53,8 +53,8 @@ TEST(IntegratorRegistry, KeysAreTheCommonOnesThenEachIntegratorsOwnOnce) {
   const std::vector<std::string> expected = {
       "name", "dt", "substeps", "max_retries", "auto_substep", "cfl_safety",
       "max_newton_iterations", "newton_tolerance", "max_backtracks", "linear_solver",
-      "cg_tolerance", "cg_max_iterations", "error_ratio", "error_cap", "error_floor", "iterations",
-      "chebyshev_rho"};
+      "cg_tolerance", "cg_max_iterations", "solver", "lbfgs_memory", "lbfgs_max_iterations",
+      "error_ratio", "error_cap", "error_floor", "iterations", "chebyshev_rho"};
   EXPECT_EQ(integratorKeys(), expected);
 }
 

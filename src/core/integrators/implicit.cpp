@@ -11,8 +11,22 @@
 
 namespace fem_cloth {
 
-ImplicitIntegrator::ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings)
-    : scheme_(scheme), newton_(settings) {}
+Expected<ImplicitSolver> parseImplicitSolver(const std::string& name) {
+  if (name == "newton") return ImplicitSolver::Newton;
+  if (name == "lbfgs") return ImplicitSolver::Lbfgs;
+  return Error{"unknown solver '" + name + "' (known: newton, lbfgs)"};
+}
+
+std::string implicitSolverName(ImplicitSolver kind) {
+  return kind == ImplicitSolver::Lbfgs ? "lbfgs" : "newton";
+}
+
+ImplicitIntegrator::ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings,
+                                       ImplicitSolverSettings solver)
+    : scheme_(scheme),
+      newton_(settings),
+      solverKind_(solver.kind),
+      lbfgs_(solver.lbfgs, LineSearchSettings{settings.maxBacktracks, settings.armijo}) {}
 
 std::string ImplicitIntegrator::name() const {
   return scheme_ == ImplicitScheme::BackwardEuler ? "backward_euler" : "bdf2";
@@ -253,6 +267,11 @@ bool ImplicitIntegrator::solve(const StepInput& input, const State& state, doubl
   problem.error = [c = &context](const NewtonIterate& it, const VectorX& dx) {
     return c->self->displacementError(*c->input, *c->state, c->h, it, dx);
   };
+  if (solverKind_ == ImplicitSolver::Lbfgs) {
+    if (quasiNewton(input, problem, report)) return true;
+    if (!report.error.empty()) return false;
+    ++report.solverFallbacks;  // Newton from where L-BFGS stopped (a lower Phi than the start)
+  }
   const NewtonOutcome outcome = newton_.solve(problem, iterate_);
   report.displacement.merge(outcome.displacement);
   report.newtonIterations += outcome.iterations;
@@ -266,6 +285,27 @@ bool ImplicitIntegrator::solve(const StepInput& input, const State& state, doubl
     report.error += " (" + residualText(left) + ")";
   }
   return false;
+}
+
+bool ImplicitIntegrator::quasiNewton(const StepInput& input, const NewtonProblem& problem,
+                                     StepReport& report) {
+  // B0 = (1 + c^2 gamma alpha) M + c^2 (1 + gamma beta) L: Phi's Hessian with the stiffness,
+  // damped by Rayleigh's beta K0, replaced by the rest-state matrix L (initial_hessian.h).
+  const double c2 = potential_.c2(), gamma = potential_.gamma();
+  const double alpha = massDamped_ ? input.damping.massProportional : 0.0;
+  const double beta = stiffnessDamped_ ? input.damping.stiffnessProportional : 0.0;
+  std::string error;
+  if (!initialHessian_.prepare(*model_, *pinned_, 1.0 + c2 * gamma * alpha, c2 * (1.0 + gamma * beta), &error)) {
+    report.error = name() + ": " + error;
+    return false;
+  }
+  const NewtonOutcome outcome = lbfgs_.solve(problem, initialHessian_, iterate_);
+  report.quasiNewtonIterations += outcome.iterations;
+  report.lineSearchBacktracks += outcome.backtracks;
+  report.newtonTimes += outcome.times;
+  if (!outcome.ok) return false;
+  report.displacement.merge(outcome.displacement);
+  return true;
 }
 
 bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h, int remaining,

@@ -73,94 +73,17 @@ bool ProjectiveDynamics::prepare(const StepInput& input, double h, std::string* 
   systemFree_.setFromTriplets(ff.begin(), ff.end());
   couplingFreePinned_.resize(nf, numPinned);
   couplingFreePinned_.setFromTriplets(fp.begin(), fp.end());
-  solver_.compute(systemFree_);
-  if (solver_.info() != Eigen::Success) {
+  if (!factor_.compute(systemFree_, d)) {
     *error = "projective_dynamics: the system matrix could not be factorised";
     return false;
   }
   ++factorisations_;
-  // Keep the factor L (column-major, diagonal first in each column) and the fill-reducing
-  // permutation (P A P^T = L L^T) for solveAllCoordinates.
-  const Matrix& L = solver_.matrixL().nestedExpression();
-  factorOuter_.assign(L.outerIndexPtr(), L.outerIndexPtr() + L.outerSize() + 1);
-  factorInner_.assign(L.innerIndexPtr(), L.innerIndexPtr() + L.nonZeros());
-  factorValues_.assign(L.valuePtr(), L.valuePtr() + L.nonZeros());
-  permutation_.assign(solver_.permutationP().indices().data(),
-                      solver_.permutationP().indices().data() + nf);
-  work_.resize(nf, d - 1);
-  tailWork_.resize(nf);
   factorisedFor_ = pinnedVertices_;
   factorisedH_ = h;
   rhsFree_.resize(nf, d);
   solFree_.resize(nf, d);
   pinnedPositions_.resize(numPinned, d);
   return true;
-}
-
-namespace {
-
-// Forward (L y = b) and backward (L^T z = y) substitution on D interleaved right-hand sides,
-// y[D*i + c]; column j of the CSC factor L starts with its diagonal. D is a template parameter
-// so that the inner loops over coordinates unroll.
-template <int D>
-void substitute(Index n, const int* outer, const int* inner, const double* value, double* y) {
-  for (Index j = 0; j < n; ++j) {
-    double* yj = y + D * j;
-    const double inv = 1.0 / value[outer[j]];
-    for (int c = 0; c < D; ++c) yj[c] *= inv;
-    for (int k = outer[j] + 1; k < outer[j + 1]; ++k) {
-      double* yi = y + D * inner[k];
-      const double l = value[k];
-      for (int c = 0; c < D; ++c) yi[c] -= l * yj[c];
-    }
-  }
-  for (Index j = n - 1; j >= 0; --j) {
-    double* yj = y + D * j;
-    double acc[D];
-    for (int c = 0; c < D; ++c) acc[c] = yj[c];
-    for (int k = outer[j] + 1; k < outer[j + 1]; ++k) {
-      const double* yi = y + D * inner[k];
-      const double l = value[k];
-      for (int c = 0; c < D; ++c) acc[c] -= l * yi[c];
-    }
-    const double inv = 1.0 / value[outer[j]];
-    for (int c = 0; c < D; ++c) yj[c] = acc[c] * inv;
-  }
-}
-
-}  // namespace
-
-void ProjectiveDynamics::solveAllCoordinates() {
-  const Index nf = static_cast<Index>(permutation_.size());
-  const int d = static_cast<int>(rhsFree_.cols());
-  const int* outer = factorOuter_.data();
-  const int* inner = factorInner_.data();
-  const double* value = factorValues_.data();
-  // Two independent solves, on two threads for large systems: the first d - 1 coordinates
-  // interleaved, the last alone. Each is the same arithmetic whatever the number of threads.
-  double* head = work_.data();   // nf x (d - 1), row-major
-  double* tail = tailWork_.data();  // nf
-  for (Index i = 0; i < nf; ++i) {
-    for (int c = 0; c + 1 < d; ++c) head[(d - 1) * permutation_[i] + c] = rhsFree_(i, c);
-    tail[permutation_[i]] = rhsFree_(i, d - 1);
-  }
-#pragma omp parallel sections if (nf >= kParallelElementThreshold)
-  {
-#pragma omp section
-    {
-      if (d == 3) {
-        substitute<2>(nf, outer, inner, value, head);
-      } else {
-        substitute<1>(nf, outer, inner, value, head);
-      }
-    }
-#pragma omp section
-    substitute<1>(nf, outer, inner, value, tail);
-  }
-  for (Index i = 0; i < nf; ++i) {
-    for (int c = 0; c + 1 < d; ++c) solFree_(i, c) = head[(d - 1) * permutation_[i] + c];
-    solFree_(i, d - 1) = tail[permutation_[i]];
-  }
 }
 
 void ProjectiveDynamics::iterate(const StepInput& input, State& state, double h, int count) {
@@ -187,7 +110,7 @@ void ProjectiveDynamics::iterate(const StepInput& input, State& state, double h,
       }
     }
     rhsFree_.noalias() -= couplingFreePinned_ * pinnedPositions_;
-    solveAllCoordinates();
+    factor_.solve(rhsFree_, solFree_);
     if (rho > 0.0) {
       // Chebyshev semi-iteration (Wang 2015, eq. 6): blend with the iterate before last.
       const int it = iteration_;
@@ -238,7 +161,7 @@ void ProjectiveDynamics::applyInverse(const VectorX& q, VectorX& z) {
   for (Index j = 0; j < nf; ++j) {
     for (int c = 0; c < d; ++c) rhsFree_(j, c) = q[d * freeVertices_[j] + c];
   }
-  solveAllCoordinates();
+  factor_.solve(rhsFree_, solFree_);
   z.setZero(q.size());
   for (Index j = 0; j < nf; ++j) {
     for (int c = 0; c < d; ++c) z[d * freeVertices_[j] + c] = solFree_(j, c);
@@ -265,27 +188,16 @@ ForceResidual ProjectiveDynamics::quasiNewton(const StepInput& input, State& sta
     }
   };
   freeGradient(g_);
-  int stored = 0, newest = -1;
+  history_.clear();
+  auto applyInverseA = [this](const VectorX& q, VectorX& z) { applyInverse(q, z); };
   while (!(unbalanced.relative <= tolerance) && iteration_ < settings_.maxIterations && std::isfinite(phi)) {
     ++iteration_;
-    // Two-loop recursion (Nocedal & Wright, algorithm 7.4) with H0 = A^-1.
-    direction_ = g_;
-    for (int k = 0; k < stored; ++k) {
-      const int i = (newest - k + kMemory) % kMemory;
-      alpha_[i] = rho_[i] * s_[i].dot(direction_);
-      direction_ -= alpha_[i] * y_[i];
-    }
-    applyInverse(direction_, trial_);
-    direction_.swap(trial_);
-    for (int k = stored - 1; k >= 0; --k) {
-      const int i = (newest - k + kMemory) % kMemory;
-      const double beta = rho_[i] * y_[i].dot(direction_);
-      direction_ += (alpha_[i] - beta) * s_[i];
-    }
+    // Two-loop recursion (solvers/lbfgs.h) with H0 = A^-1.
+    history_.apply(g_, applyInverseA, direction_);
     direction_ = -direction_;
     double slope = g_.dot(direction_);
     if (!(slope < 0.0)) {
-      stored = 0;  // restart: the preconditioned gradient always descends (A is SPD)
+      history_.clear();  // restart: the preconditioned gradient always descends (A is SPD)
       applyInverse(g_, direction_);
       direction_ = -direction_;
       slope = g_.dot(direction_);
@@ -303,17 +215,8 @@ ForceResidual ProjectiveDynamics::quasiNewton(const StepInput& input, State& sta
       unbalanced = residual(input, state.x, h, &phi);
       break;
     }
-    newest = (newest + 1) % kMemory;
-    s_[newest] = trial_ - state.x;
     freeGradient(gTrial_);
-    y_[newest] = gTrial_ - g_;
-    const double sy = s_[newest].dot(y_[newest]);
-    if (sy > 0.0) {
-      rho_[newest] = 1.0 / sy;
-      stored = std::min(stored + 1, kMemory);
-    } else {
-      newest = (newest - 1 + kMemory) % kMemory;  // no curvature information: keep the old pairs
-    }
+    history_.add(trial_, state.x, gTrial_, g_);  // kept if it carries curvature
     state.x.swap(trial_);
     g_.swap(gTrial_);
     phi = phiTrial;

@@ -9,18 +9,13 @@
 #include "fem_cloth/core/scene.h"
 #include "fem_cloth/core/integrators/registry.h"
 #include "fem_cloth/core/integrators/step_common.h"
+#include "fem_cloth/core/solvers/projected_hessian.h"
 
 namespace fem_cloth {
 
 double SymplecticEuler::stableStep(Model& model, const VectorX& x, const std::vector<char>& pinned,
                                    const Damping& damping) {
-  SparseHessian& H = model.hessianPattern();
-  H.setZero();
-  EvalRequest request;
-  request.energy = false;
-  request.hessian = &H;
-  request.hessianMode = HessianMode::Projected;
-  model.evaluate(x, request);
+  SparseHessian& H = projectedHessian(model, x);
   // Power iteration on the symmetric M^-1/2 K M^-1/2 restricted to free DOFs. The start vector
   // alternates in sign from DOF to DOF so it overlaps the highest (checkerboard) modes.
   const Index n = model.numDofs();

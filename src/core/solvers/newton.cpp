@@ -37,7 +37,7 @@ void filterPinned(Matrix& A, const std::vector<char>& pinned, const VectorX& mas
 
 }  // namespace
 
-double NewtonSolver::relativeGradient(const NewtonProblem& problem, const VectorX& g) const {
+double relativeGradient(const NewtonProblem& problem, const VectorX& g) {
   const std::vector<char>& pinned = *problem.pinned;
   const VectorX& mass = problem.potential->mass();
   double worst = 0.0;
@@ -148,7 +148,7 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
       continue;
     }
     const LineSearch::Outcome found = search_.search(
-        potential, dx_, it, [&](const VectorX& g) { return relativeGradient(problem, g); });
+        potential, dx_, it, [&problem](const VectorX& g) { return relativeGradient(problem, g); });
     outcome.backtracks += found.backtracks;
     lap(clock, outcome.times.search);
     if (!found.moved) {

@@ -33,24 +33,43 @@
 #include "fem_cloth/core/integrators/integrator.h"
 #include "fem_cloth/core/potential/incremental_potential.h"
 #include "fem_cloth/core/potential/terms.h"
+#include "fem_cloth/core/solvers/lbfgs.h"
 #include "fem_cloth/core/solvers/newton.h"
 
 namespace fem_cloth {
 
+/// Which solver minimises Phi (`integrator.solver`): projected Newton (solvers/newton.h) or
+/// L-BFGS on a prefactored rest-state matrix (solvers/lbfgs.h), which falls back to Newton for a
+/// substep where it stalls (StepReport::solverFallbacks counts them).
+enum class ImplicitSolver { Newton, Lbfgs };
+
+struct ImplicitSolverSettings {
+  ImplicitSolver kind = ImplicitSolver::Newton;
+  QuasiNewtonSettings lbfgs;
+};
+
+/// "newton" or "lbfgs"; anything else is an error naming the known values.
+Expected<ImplicitSolver> parseImplicitSolver(const std::string& name);
+std::string implicitSolverName(ImplicitSolver kind);
+
 class ImplicitIntegrator final : public Integrator {
  public:
-  ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings);
+  ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings,
+                     ImplicitSolverSettings solver = {});
   std::string name() const override;
   bool needsHessian() const override { return true; }
   StepReport step(const StepInput& input, State& state, double dt, int minSubsteps,
                   VectorX& pinForce) override;
   void invalidate() override {
     newton_.invalidate();
+    initialHessian_.invalidate();
     sizeScale_ = 0.0;
   }
 
   /// The linear solver in use (null before the first step).
   const LinearSolver* linearSolver() const { return newton_.linearSolver(); }
+  /// The quasi-Newton solver's initial Hessian (built on its first substep).
+  const InitialHessian& initialHessian() const { return initialHessian_; }
 
  private:
   /// One implicit substep of size h over the fraction [fractionStart, fractionEnd] of the step;
@@ -63,8 +82,10 @@ class ImplicitIntegrator final : public Integrator {
   /// The first Newton iterate (evaluated there); false if every candidate leaves a material's
   /// domain.
   bool startingPoint(const StepInput& input, const State& state, int remaining, StepReport& report);
-  /// Newton's iterations until converged; false (report.error set) if they fail.
+  /// The solver's iterations until converged; false (report.error set) if they fail.
   bool solve(const StepInput& input, const State& state, double h, StepReport& report);
+  /// L-BFGS for the substep; false if it stalled (Newton takes over from where it stopped).
+  bool quasiNewton(const StepInput& input, const NewtonProblem& problem, StepReport& report);
   /// Acceptance test (a) at an iterate whose remaining Newton correction is dx.
   DisplacementError displacementError(const StepInput& input, const State& state, double h,
                                       const NewtonIterate& it, const VectorX& dx);
@@ -77,6 +98,9 @@ class ImplicitIntegrator final : public Integrator {
 
   ImplicitScheme scheme_;
   NewtonSolver newton_;
+  ImplicitSolver solverKind_;
+  QuasiNewtonSolver lbfgs_;
+  InitialHessian initialHessian_;
   IncrementalPotential potential_;
   ElasticTerm elastic_;
   LoadTerm loads_;

@@ -128,6 +128,10 @@ struct StepReport {
   bool retryable = true;
   int substeps = 0;
   int newtonIterations = 0;
+  /// Iterations of the quasi-Newton solver (integrator.solver: lbfgs), and the substeps where it
+  /// stalled and Newton finished the solve (whose iterations count as newtonIterations).
+  int quasiNewtonIterations = 0;
+  int solverFallbacks = 0;
   /// The unbalanced force the solver left (acceptance test (a)), the worst over the substeps;
   /// zero for symplectic Euler, which solves no equation.
   ForceResidual unbalanced;

@@ -19,11 +19,10 @@
 // backward Euler; stiffness-proportional damping is not supported.
 #pragma once
 
-#include <Eigen/SparseCholesky>
-#include <array>
-
 #include "fem_cloth/core/air.h"
 #include "fem_cloth/core/integrators/integrator.h"
+#include "fem_cloth/core/solvers/lbfgs.h"
+#include "fem_cloth/core/solvers/scalar_cholesky.h"
 
 namespace fem_cloth {
 
@@ -61,7 +60,7 @@ class ProjectiveDynamics final : public Integrator {
   /// More iterations, by quasi-Newton, from state.x until the forces balance or maxIterations
   /// are spent; returns the residual at the final state.x.
   ForceResidual quasiNewton(const StepInput& input, State& state, double h, ForceResidual unbalanced);
-  /// z = A^-1 q on the free DOFs (zero on pinned ones), with the factor of solver_.
+  /// z = A^-1 q on the free DOFs (zero on pinned ones), with factor_.
   void applyInverse(const VectorX& q, VectorX& z);
 
   ProjectiveDynamicsSettings settings_;
@@ -75,15 +74,7 @@ class ProjectiveDynamics final : public Integrator {
   std::vector<Index> freeVertices_;
   Matrix systemFree_;              // A restricted to free vertices
   Matrix couplingFreePinned_;      // A(free, pinned): moves pinned targets to the right side
-  Eigen::SimplicialLLT<Matrix, Eigen::Lower, Eigen::AMDOrdering<int>> solver_;
-  /// Solves A X = B for the d columns of B (B, X: free vertices x d, row-major) with the factor
-  /// of solver_: coordinates interleaved, so a pass over the factor serves several of them (the
-  /// solve is memory bound), and split over two threads on large meshes.
-  void solveAllCoordinates();
-  std::vector<int> factorOuter_, factorInner_, permutation_;
-  std::vector<double> factorValues_;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> work_;
-  VectorX tailWork_;
+  ScalarCholesky factor_;          // of systemFree_, for every coordinate
   // Scratch (sized once).
   VectorX xhat_, rhs_, xPrev_, xPrevPrev_, vStart_, force_, velocity_;
   LaggedAir air_;  // air only
@@ -91,8 +82,7 @@ class ProjectiveDynamics final : public Integrator {
   // Quasi-Newton: the gradient, a direction, a trial point and the L-BFGS curvature pairs.
   static constexpr int kMemory = 6;
   VectorX g_, gTrial_, direction_, trial_;
-  std::array<VectorX, kMemory> s_, y_;
-  std::array<double, kMemory> rho_{}, alpha_{};
+  LbfgsHistory history_{kMemory};
   int iteration_ = 0;   // iterations of the substep so far
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> rhsFree_, solFree_;
   Eigen::MatrixXd pinnedPositions_;

@@ -66,6 +66,10 @@ struct NewtonOutcome {
   NewtonTimes times;
 };
 
+/// Largest |g_i| / (m_i g c^2) over the free DOFs of a gradient g of Phi: the merit of the line
+/// search's round-off regime (LineSearch::search), for every solver of a NewtonProblem.
+double relativeGradient(const NewtonProblem& problem, const VectorX& g);
+
 class NewtonSolver {
  public:
   explicit NewtonSolver(NewtonSettings settings)
@@ -85,8 +89,6 @@ class NewtonSolver {
   /// The error at `it` by the factorisation in hand (into outcome.displacement), the move that
   /// reached `it` being `moved` long (m, 2-norm; 0: none); true if small enough.
   bool converged(const NewtonProblem& problem, const NewtonIterate& it, double moved, NewtonOutcome& outcome);
-  /// Largest |g_i| / (m_i g c^2) over free DOFs: the merit of the round-off fallback.
-  double relativeGradient(const NewtonProblem& problem, const VectorX& g) const;
 
   NewtonSettings settings_;
   std::unique_ptr<LinearSolver> solver_;
