@@ -111,9 +111,10 @@ double worstVertex(const VectorX& a, const VectorX& b) {
 // tightly (error ratio and cap 1e-6, as test_acceptance's DefaultTolerance); L-BFGS may take up
 // to lbfgsMaxIterations per step (linear convergence needs many to reach 1e-6). The linear
 // membrane leaves its validity range in the fifth step.
-SolvedRun hangingCloth(const std::string& material, const std::string& solver, int lbfgsMaxIterations = 10'000) {
+SolvedRun hangingCloth(const std::string& material, const std::string& solver, int lbfgsMaxIterations = 10'000,
+                       const std::string& integrator = "backward_euler") {
   Scene scene = loadScene(std::string(FEM_CLOTH_CONFIG_DIR) + "/hanging_cloth.yaml",
-                          {"integrator.name=backward_euler", "integrator.solver=" + solver,
+                          {"integrator.name=" + integrator, "integrator.solver=" + solver,
                            "integrator.lbfgs_max_iterations=" + std::to_string(lbfgsMaxIterations)})
                     .value();
   scene.grid.rows = scene.grid.cols = 9;
@@ -176,6 +177,19 @@ TEST_P(AgreesWithNewton, WithinTheTolerance) {
 }
 
 INSTANTIATE_TEST_SUITE_P(EveryMaterial, AgreesWithNewton, ::testing::ValuesIn(materialNames()));
+
+// The same bound for BDF2 (its first step backward Euler, then second order: B0 is factorised
+// again once for BDF2's c^2 = 4/9 h^2).
+TEST(Bdf2, AgreesWithNewtonWithinTheTolerance) {
+  const SolvedRun newton = hangingCloth("stvk", "newton", 10'000, "bdf2");
+  const SolvedRun lbfgs = hangingCloth("stvk", "lbfgs", 10'000, "bdf2");
+  const double difference = worstVertex(newton.x, lbfgs.x), bound = 10.0 * 2.0 * lbfgs.tolerance;
+  std::cout << "bdf2: L-BFGS " << lbfgs.quasiNewton << " iterations, " << lbfgs.factorisations
+            << " factorisations; differs from Newton by " << difference << " m, bound " << bound << " m\n";
+  EXPECT_EQ(lbfgs.fallbacks, 0);
+  EXPECT_EQ(lbfgs.factorisations, 2);
+  EXPECT_LE(difference, bound);
+}
 
 // A stall: L-BFGS allowed one iteration per substep cannot reach the tight tolerance, so every
 // substep falls back to Newton, which finishes it from where L-BFGS stopped; the run then is
