@@ -363,6 +363,37 @@ TEST(ContactWork, EnergyCreatedByTheProjectionIsRefused) {
   EXPECT_LT(highest, 2.0 * kDistance);  // never thrown
 }
 
+// Below the friction angle, IPC's smoothed friction (contact/barrier.h) makes a sticking contact
+// creep: its force is mu lambda f1(y) with y the slide over a substep, f1(y) = 2 y/eps - y^2/eps^2
+// below eps = eps_v h. Under a tangential load T = r mu lambda (r < 1) a contact creeps at the
+// speed v where f1(v h) = r: v = eps_v (1 - sqrt(1 - r)) (BDF2: y = v / gamma against eps_v / gamma,
+// the same v). So it creeps slower than eps_v, and the closer to eps_v the nearer its load is to
+// mu lambda; at r >= 1 it slides (Coulomb, SticksBelowTheFrictionAngleAndSlidesAbove). On a slope
+// of angle theta every vertex carries r = tan(theta) / mu; the creep of the centre of mass,
+// measured from the trajectory, against the formula.
+TEST(ContactFriction, SticksWithTheCreepOfSmoothedCoulomb) {
+  const double mu = 0.5, epsV = 1e-3;
+  for (const std::string integrator : {"backward_euler", "bdf2"}) {
+    for (double r : {0.5, 0.9}) {
+      const double theta = std::atan(r * mu);
+      Scene scene = clothOnTable(integrator, 4, 0.1, 0.5 * kDistance, mu);
+      scene.contact.frictionVelocity = epsV;
+      scene.gravity = kG * Eigen::Vector3d(std::sin(theta), 0.0, -std::cos(theta));
+      Simulation sim = mustBuild(scene);
+      Simulator& s = *sim.simulator;
+      const int settle = 20, measured = 30;  // 0.2 s, 0.3 s
+      ASSERT_EQ(run(sim, settle), "") << integrator;
+      const double x0 = massMean(s.model(), s.state().x).x();
+      ASSERT_EQ(run(sim, measured), "") << integrator;
+      const double creep = (massMean(s.model(), s.state().x).x() - x0) / (measured * scene.dt);
+      const double expected = epsV * (1.0 - std::sqrt(1.0 - r));
+      std::cout << integrator << ": load ratio " << r << ", creep " << creep * 1e3
+                << " mm/s; eps_v (1 - sqrt(1 - r)) = " << expected * 1e3 << " mm/s\n";
+      EXPECT_NEAR(creep, expected, 1e-3 * expected) << integrator << ", r = " << r;
+    }
+  }
+}
+
 // Projective dynamics refuses obstacles at scene load (ContactScope below).
 std::vector<std::string> contactIntegrators() {
   std::vector<std::string> names;
