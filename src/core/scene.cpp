@@ -733,6 +733,17 @@ Status applySceneForces(const Scene& scene, Simulator& simulator, SceneScript& s
 
 }  // namespace
 
+SimulatorSettings simulatorSettings(const Scene& scene) {
+  SimulatorSettings settings;
+  settings.gravity = scene.gravity;
+  settings.damping = scene.damping;
+  settings.dt = scene.dt;
+  settings.minSubsteps = scene.substeps;
+  settings.maxRetries = scene.maxRetries;
+  settings.acceptance.displacement = scene.displacement;
+  return settings;
+}
+
 Expected<Simulation> buildSimulation(const Scene& scene) {
   if (Status s = validateScene(scene); !s) return Error{s.error()};
   Simulation sim;
@@ -751,14 +762,8 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
                                        lumpedMasses(*mesh, *rest, scene.density * scene.thickness));
   FEM_CLOTH_CHECK(addEnergyTerms(scene, mesh, rest, *material, *sim.model));
 
-  SimulatorSettings settings;
-  settings.gravity = scene.gravity;
-  settings.damping = scene.damping;
-  settings.dt = scene.dt;
-  settings.minSubsteps = scene.substeps;
-  settings.maxRetries = scene.maxRetries;
-  settings.acceptance.displacement = scene.displacement;
-  sim.simulator = std::make_unique<Simulator>(sim.model, (*findIntegrator(scene.integrator))->make(scene), settings);
+  sim.simulator = std::make_unique<Simulator>(sim.model, (*findIntegrator(scene.integrator))->make(scene),
+                                              simulatorSettings(scene));
   if (scene.air) sim.simulator->setAir(std::make_unique<AirModel>(mesh, *scene.air));
   Simulator& simulator = *sim.simulator;
 

@@ -73,6 +73,11 @@ double Simulator::mechanicalEnergy() {
   return kineticEnergy(state_.v) + elastic.energy - gravityForce_.dot(state_.x);
 }
 
+double Simulator::contactEnergyNow() {
+  if (!contactNow_) contactNow_ = contact_ ? contact_->storedEnergy(state_.x, pinned_) : 0.0;
+  return *contactNow_;
+}
+
 double Simulator::storedEnergy(const State& s) {
   return kineticEnergy(s.v) + model_->energies(s.x).total();
 }
@@ -105,7 +110,7 @@ Status Simulator::setInitialState(const VectorX& x, const VectorX& v) {
   state_.x = x;
   state_.v = v.size() == 0 ? VectorX::Zero(n) : v;
   state_.clearHistory();
-  energyNow_.reset();
+  forgetEnergy();
   state_.time = 0.0;
   state_.step = 0;
   for (Index i = 0; i < n; ++i) {
@@ -118,7 +123,7 @@ Status Simulator::setInitialState(const VectorX& x, const VectorX& v) {
 
 void Simulator::reset() {
   state_ = initial_.state;
-  energyNow_.reset();
+  forgetEnergy();
   pinned_ = initial_.pinned;
   pinTarget_ = initial_.pinTarget;
   pinVelocity_ = initial_.pinVelocity;
@@ -135,7 +140,7 @@ void Simulator::reset() {
 void Simulator::continueFrom(Simulator& from) {
   const EnergyReport before = from.energies();
   state_ = from.state_;
-  energyNow_.reset();
+  forgetEnergy();
   pinned_ = from.pinned_;
   pinTarget_ = from.pinTarget_;
   pinVelocity_ = from.pinVelocity_;
@@ -314,7 +319,8 @@ Status Simulator::accept(const StepReport& r, double energyStart, EnergyStep& en
   }
   const double elastic = end.energy;
   energy.start = energyStart;
-  energy.end = kinetic + elastic - gravityForce_.dot(state_.x);
+  energy.end = kinetic + elastic - gravityForce_.dot(state_.x) + r.contactEnergy;
+  energy.contactStored = r.contactEnergy - contactEnergyNow();
   energy.held = std::max(heldAtStart(energyStart), kinetic + elastic);
   energy.externalWork = externalForce_.dot(state_.x - backup_.x);
   energy.pinWork = r.pinWork;
@@ -340,6 +346,7 @@ void Simulator::EnergyBook::add(const EnergyStep& step) {
   externalWork += step.externalWork;
   pinWork += step.pinWork;
   contactWork += step.contactWork;
+  contactEnergy += step.contactStored;
   airWork += step.airWork;
   dissipated += step.dissipated;
   const double gained = step.created();
@@ -381,6 +388,7 @@ void Simulator::flagPinJump(StepReport& r, double energyStart, double dt) {
 void Simulator::commit(const StepReport& r, const EnergyStep& energy, double dt) {
   book_.add(energy);
   energyNow_ = energy.end;
+  contactNow_ = r.contactEnergy;
   if (obstacles_) obstacles_->commitStep();
   previousPinForce_ = pinForce_;
   state_.time += dt;
@@ -441,6 +449,7 @@ void takeAttempt(StepReport& total, const StepReport& r) {
   total.contactChecks += r.contactChecks;
   total.contacts = r.contacts;
   total.contactWork = r.contactWork;
+  total.contactEnergy = r.contactEnergy;
   total.airWork = r.airWork;
   total.minContactDistance = r.minContactDistance;
   if (r.ok) {
@@ -483,7 +492,7 @@ StepReport Simulator::step(double dt) {
   dropExpiredForces(dt);
   StepInput input = stepInput(dt);
   backup_ = state_;
-  const double energyStart = energyNow_ ? *energyNow_ : mechanicalEnergy();
+  const double energyStart = energyNow_ ? *energyNow_ : mechanicalEnergy() + contactEnergyNow();
   // What acceptance test (b) allows the step to create at least (its scale can only grow with
   // the step's work and end energy): the implicit steppers converge within a fraction of it.
   input.energyBudget = integrator_->energyTolerance() * std::max(sizeScale_, heldAtStart(energyStart));
@@ -537,10 +546,11 @@ EnergyReport Simulator::energies() {
   e.externalWork = book_.externalWork;
   e.pinWork = book_.pinWork;
   e.contactWork = book_.contactWork;
+  e.contactEnergy = book_.contactEnergy;
   e.airWork = book_.airWork;
   e.dissipated = book_.dissipated;
   e.liveWork = book_.liveWork;
-  e.total = e.kinetic + e.strain + e.bending + e.gravity;
+  e.total = e.kinetic + e.strain + e.bending + e.gravity + e.contactEnergy;
   e.initialTotal = initialTotal_;
   e.balanceError = e.total - e.externalWork - e.pinWork - e.contactWork - e.airWork - e.liveWork +
                    e.dissipated - e.initialTotal;

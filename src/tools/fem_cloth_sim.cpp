@@ -193,6 +193,7 @@ using Json = nlohmann::ordered_json;
 Json energyJson(const EnergyReport& e) {
   return Json{{"kinetic", e.kinetic},         {"strain", e.strain},
               {"bending", e.bending},         {"gravity", e.gravity},
+              {"contact_energy", e.contactEnergy},
               {"total", e.total},             {"external_work", e.externalWork},
               {"pin_work", e.pinWork},        {"contact_work", e.contactWork},
               {"air_work", e.airWork},        {"live_work", e.liveWork},
@@ -218,8 +219,8 @@ const char* runStatus(const std::string& failure, const EnergyReport& e, const B
 std::string workLine(const EnergyReport& e) {
   std::ostringstream line;
   line << std::setprecision(4) << "work (J):     external " << e.externalWork << ", pins " << e.pinWork << ", contact "
-       << e.contactWork << " (obstacles and self-contact, friction included), air " << e.airWork
-       << ", live changes " << e.liveWork << ", dissipated by damping " << e.dissipated << '\n';
+       << e.contactWork << " (by moving obstacles, measured, friction included), air " << e.airWork
+       << ", live changes " << e.liveWork << ", dissipated by damping and friction " << e.dissipated << '\n';
   return line.str();
 }
 
@@ -428,7 +429,8 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
           << " substeps), simulated " << simulator.time() << " s in " << wall << " s wall"
           << " (real-time factor " << simulator.time() / std::max(wall, 1e-9) << ")\n";
   summary << "energy (J):   kinetic " << e.kinetic << ", strain " << e.strain << ", bending "
-          << e.bending << ", gravity " << e.gravity << ", total " << e.total << '\n';
+          << e.bending << ", gravity " << e.gravity << ", contact barriers " << e.contactEnergy
+          << ", total " << e.total << '\n';
   summary << workLine(e);
   if (const ObstacleSet* obstacles = simulator.obstacles()) {
     // What each obstacle carries at the end (N, in the simulation frame): a table under a

@@ -163,6 +163,8 @@ TEST_P(Contact, DroppedClothComesToRestOnTheTable) {
   const ObstacleWrench& w = s.obstacles()->wrenches()[0];
   EXPECT_NEAR(w.force.z(), -weight, 0.01 * weight);
   EXPECT_NEAR(w.force.head<2>().norm(), 0.0, 1e-3 * weight);
+  // A resting table does no work (issue 30: the landing's loss was booked as contact work).
+  EXPECT_NEAR(s.energies().contactWork, 0.0, 1e-12 * weight);
   std::cout << GetParam() << ": lowest vertex over the run " << lowest << " m above the table; at rest "
             << minZ(x) << " to " << highest << " m (expected " << expected << " m); table carries "
             << -w.force.z() << " N of " << weight << " N\n";
@@ -226,8 +228,10 @@ TEST_P(Contact, DraggedClothDragsTheTableWithItsFriction) {
   const double weight = freeMass * kG;
   Eigen::Vector3d tableForce = Eigen::Vector3d::Zero(), pinForce = Eigen::Vector3d::Zero();
   int samples = 0;
+  double dissipatedAt60 = 0.0;
   ASSERT_EQ(run(sim, 100, [&](int n, const StepReport&) {
               EXPECT_GT(minZ(s.state().x), 0.0) << "step " << n;
+              if (n == 60) dissipatedAt60 = s.energies().dissipated;
               if (n <= 60) return;  // steady sliding from about 0.3 s
               tableForce += s.obstacles()->wrenches()[0].force;
               const VectorX reactions = s.pinReactions();
@@ -244,6 +248,17 @@ TEST_P(Contact, DraggedClothDragsTheTableWithItsFriction) {
   EXPECT_NEAR(pinForce.x(), -mu * weight, 0.1 * mu * weight);
   // The cloth came along: its centre moved with the pins.
   EXPECT_NEAR(massMean(s.model(), s.state().x).x() - 0.15, 0.2 * 1.0, 0.03);
+  // The resting table did no work; friction turned mu W v per second into heat while the cloth
+  // slid at the pins' v = 0.2 m/s (the implicit steppers measure it; the projection's loss is
+  // not told apart from the scheme's: issue 30).
+  const EnergyReport e = s.energies();
+  EXPECT_NEAR(e.contactWork, 0.0, 1e-12 * weight);
+  const double coulomb = mu * weight * 0.2 * samples * scene.dt;
+  std::cout << GetParam() << ": friction dissipated " << e.dissipated - dissipatedAt60 << " J in "
+            << samples * scene.dt << " s of steady sliding; mu W v T = " << coulomb << " J\n";
+  if (implicitIntegrator(GetParam())) {
+    EXPECT_NEAR(e.dissipated - dissipatedAt60, coulomb, 0.01 * coulomb);
+  }
 }
 
 // A sphere of radius 0.1 m scripted to move at 0.3 m/s through the plane of a hanging cloth
@@ -295,9 +310,8 @@ TEST_P(Contact, MovingObstaclePushesTheClothWithoutPassingThrough) {
 // velocities). Without damping or friction (the motion is normal to the table) nothing else
 // takes or gives energy.
 TEST_P(Contact, RisingTableDoesTheWorkOfLiftingTheCloth) {
-  // It starts 1.5 d̂ above the table: symplectic Euler's projection throws a cloth that starts
-  // within d̂ of a box off it, moving or not (0.43 m up in 0.3 s, booked as contact work; noticed,
-  // left to the contact issue).
+  // It starts 1.5 d̂ above the table: symplectic Euler's projection puts energy into a cloth that
+  // starts within d̂ of a box (ContactWork.EnergyCreatedByTheProjectionIsRefused).
   Scene scene = clothOnTable(GetParam(), 5, 0.2, 1.5 * kDistance, 0.0);
   const Eigen::Vector3d v(0.0, 0.0, 0.1);
   scene.obstacles[0].velocity = v;
@@ -323,6 +337,61 @@ TEST_P(Contact, RisingTableDoesTheWorkOfLiftingTheCloth) {
   std::cout << GetParam() << ": the rising table did " << booked << " J of work in " << T
             << " s; m g v T + change of kinetic energy = " << expected << " J; balance error "
             << e.balanceError << " J\n";
+}
+
+// Energy the contact creates is caught (issue 30, finding 4). Symplectic Euler's projection
+// throws a cloth that starts within d̂ of a resting table off it: the vertices are projected out
+// to d̂ (up to d̂/2 in one substep) and the displacement becomes velocity. Until the contact work
+// was measured, the projection's force times the cloth's displacement was booked as the table's
+// work, so the balance held and the run ended ok with the cloth 0.43 m up in 0.3 s. A resting
+// table does no work: what the projection puts in is energy created, which acceptance (b)
+// refuses, naming it; the cloth is never thrown.
+TEST(ContactWork, EnergyCreatedByTheProjectionIsRefused) {
+  Scene scene = clothOnTable("symplectic_euler", 5, 0.2, 0.5 * kDistance, 0.0);
+  Simulation sim = mustBuild(scene);
+  Simulator& s = *sim.simulator;
+  double highest = 0.0;
+  const std::string error = run(sim, 30, [&](int, const StepReport&) {
+    highest = std::max(highest, massMean(s.model(), s.state().x).z());
+    EXPECT_NEAR(s.energies().contactWork, 0.0, 1e-12);  // the table rests
+  });
+  std::cout << "symplectic_euler on a resting table from d̂/2: highest centre of mass " << highest
+            << " m; " << (error.empty() ? "ran through" : error) << "\n";
+  // Refused at the first step (43 J put in from 0.4 mJ, 0 J of work), whatever the substeps.
+  EXPECT_NE(error.find("step 1: "), std::string::npos) << error;
+  EXPECT_NE(error.find("energy created"), std::string::npos) << error;
+  EXPECT_LT(highest, 2.0 * kDistance);  // never thrown
+}
+
+// Below the friction angle, IPC's smoothed friction (contact/barrier.h) makes a sticking contact
+// creep: its force is mu lambda f1(y) with y the slide over a substep, f1(y) = 2 y/eps - y^2/eps^2
+// below eps = eps_v h. Under a tangential load T = r mu lambda (r < 1) a contact creeps at the
+// speed v where f1(v h) = r: v = eps_v (1 - sqrt(1 - r)) (BDF2: y = v / gamma against eps_v / gamma,
+// the same v). So it creeps slower than eps_v, and the closer to eps_v the nearer its load is to
+// mu lambda; at r >= 1 it slides (Coulomb, SticksBelowTheFrictionAngleAndSlidesAbove). On a slope
+// of angle theta every vertex carries r = tan(theta) / mu; the creep of the centre of mass,
+// measured from the trajectory, against the formula.
+TEST(ContactFriction, SticksWithTheCreepOfSmoothedCoulomb) {
+  const double mu = 0.5, epsV = 1e-3;
+  for (const std::string integrator : {"backward_euler", "bdf2"}) {
+    for (double r : {0.5, 0.9}) {
+      const double theta = std::atan(r * mu);
+      Scene scene = clothOnTable(integrator, 4, 0.1, 0.5 * kDistance, mu);
+      scene.contact.frictionVelocity = epsV;
+      scene.gravity = kG * Eigen::Vector3d(std::sin(theta), 0.0, -std::cos(theta));
+      Simulation sim = mustBuild(scene);
+      Simulator& s = *sim.simulator;
+      const int settle = 20, measured = 30;  // 0.2 s, 0.3 s
+      ASSERT_EQ(run(sim, settle), "") << integrator;
+      const double x0 = massMean(s.model(), s.state().x).x();
+      ASSERT_EQ(run(sim, measured), "") << integrator;
+      const double creep = (massMean(s.model(), s.state().x).x() - x0) / (measured * scene.dt);
+      const double expected = epsV * (1.0 - std::sqrt(1.0 - r));
+      std::cout << integrator << ": load ratio " << r << ", creep " << creep * 1e3
+                << " mm/s; eps_v (1 - sqrt(1 - r)) = " << expected * 1e3 << " mm/s\n";
+      EXPECT_NEAR(creep, expected, 1e-3 * expected) << integrator << ", r = " << r;
+    }
+  }
 }
 
 // Projective dynamics refuses obstacles at scene load (ContactScope below).

@@ -100,6 +100,17 @@ TEST(FemClothSim, EverySceneWithEveryIntegratorRuns) {
         EXPECT_NE(r.err.find("backward_euler, bdf2"), std::string::npos) << what << r.err;
         continue;
       }
+      // Issue 30: the explicit steppers' projection pushes a cloth that starts within
+      // contact.distance of a resting obstacle out to it, and the push becomes velocity:
+      // gripper_pinch.yaml's cloth lies 1.6 mm above the table (its fingers follow tf frames, which
+      // fem_cloth_sim leaves at the origin). Booked as the table's work, that threw the cloth 0.23 m
+      // up in 0.3 s with exit 0; the table rests, so it is energy created, and refused.
+      if (r.status == 3 && r.err.find(integrator + ": energy created") != std::string::npos) {
+        EXPECT_EQ(entry.path().filename(), "gripper_pinch.yaml") << what << r.err;
+        EXPECT_TRUE(integrator == "symplectic_euler" || integrator == "xpbd") << what << r.err;
+        EXPECT_EQ(lines(r.err).size(), 1u) << what << r.err;
+        continue;
+      }
       if (integrator == "xpbd" && r.status == 3 && r.err.find("xpbd: not converged") != std::string::npos) {
         EXPECT_TRUE(entry.path().filename() == "stiff_cloth.yaml" ||
                     entry.path().filename() == "hanging_cloth_fast.yaml")

@@ -235,6 +235,8 @@ struct Simulation {
 /// Builds mesh, rest state, model (only the terms the scene declares), integrator and simulator,
 /// applies initial state, pins and forces. Any problem is an error naming its key or element.
 Expected<Simulation> buildSimulation(const Scene& scene);
+/// The Simulator's settings a scene gives (gravity, damping, dt, substeps, retries).
+SimulatorSettings simulatorSettings(const Scene& scene);
 
 /// Resolves a selection against the scene's mesh.
 Expected<std::vector<Index>> resolveSelection(const VertexSelection& selection, const Scene& scene,

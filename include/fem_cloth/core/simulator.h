@@ -34,11 +34,11 @@ struct SimulatorSettings {
 };
 
 /// Energies in joules. The balance error is the drift of
-///   kinetic + strain + bending + gravity - externalWork - pinWork - contactWork - airWork
-///   - liveWork + dissipated
+///   kinetic + strain + bending + gravity + contactEnergy - externalWork - pinWork - contactWork
+///   - airWork - liveWork + dissipated
 /// since the start (or the last reset); zero for the exact solution. It is split by the sign of
 /// each step's share: balanceError = created - numericalDissipation, where numericalDissipation
-/// is what the steps lost beyond the damping model (expected of the implicit schemes, XPBD and
+/// is what the steps lost beyond the damping model and friction (expected of the implicit schemes, XPBD and
 /// projective dynamics) and created what they gained (each step's gain is bounded by the
 /// acceptance, test (b); symplectic Euler's energy oscillates, so it has both).
 struct EnergyReport {
@@ -48,13 +48,19 @@ struct EnergyReport {
   double gravity = 0.0;  ///< potential relative to the initial positions
   double externalWork = 0.0;
   double pinWork = 0.0;
-  double contactWork = 0.0;  ///< by obstacles and self-contact, friction included (<= 0 when static)
+  /// Work the obstacles did on the cloth, measured: each contact force (barrier or projection,
+  /// friction included) times the motion of the obstacle's surface point under it. 0 while
+  /// they rest; self-contact does none (its forces are internal).
+  double contactWork = 0.0;
+  /// The contact barriers' stored energy (implicit steppers), as its change since the start
+  /// (or the last reset); part of total.
+  double contactEnergy = 0.0;
   double airWork = 0.0;  ///< by the air (core/air.h): < 0 when it only drags, > 0 when wind pushes
   /// Put in by live changes (core/live_change.h): at each, the jump of the stored energy at the
   /// state it was made in (stiffer cloth, other gravity), as work done by whoever changed it.
   double liveWork = 0.0;
-  double dissipated = 0.0;
-  double total = 0.0;  ///< kinetic + strain + bending + gravity
+  double dissipated = 0.0;  ///< by the damping model and by friction (implicit steppers)
+  double total = 0.0;  ///< kinetic + strain + bending + gravity + contactEnergy
   /// The total at the start (or the last reset), measured with the current parameters (a live
   /// change re-measures it and books the difference in liveWork): balanceError is
   /// total - the works + dissipated - initialTotal.
@@ -189,7 +195,8 @@ class Simulator {
   Status checkVertex(Index vertex) const;
   /// 1/2 v^T M v (J).
   double kineticEnergy(const VectorX& v) const;
-  /// Kinetic + elastic - gravity . x at the current state (one energy evaluation).
+  /// Kinetic + elastic - gravity . x at the current state (one energy evaluation), without the
+  /// contact barriers' energy.
   double mechanicalEnergy();
   /// Kinetic + elastic energy of a state (J): the balance's reference at the initial state.
   double storedEnergy(const State& s);
@@ -226,9 +233,17 @@ class Simulator {
   StepAcceptance acceptance_;
   State state_;
   State backup_;
-  // The mechanical energy of state_, when known: the end of one step is the start of the next
-  // (the state changes only in step, setInitialState and reset).
-  std::optional<double> energyNow_;
+  // The mechanical energy of state_, the contact barriers' energy included, when known: the end
+  // of one step is the start of the next (the state changes only in step, setInitialState and
+  // reset); contactNow_ is the barriers' part of it. Both are forgotten together (forgetEnergy).
+  std::optional<double> energyNow_, contactNow_;
+  void forgetEnergy() {
+    energyNow_.reset();
+    contactNow_.reset();
+  }
+  /// The contact barriers' energy at state_ with the obstacles at the start of the step being
+  /// taken (J; 0 without barriers): contactNow_, measured if not known.
+  double contactEnergyNow();
   // The reference acceleration of test (a) (m/s^2): accelerationScale(|g|), or the mean
   // acceleration the commanded forces give the cloth if larger (rebuildExternalForce).
   double referenceAcceleration_ = kStandardGravity;
@@ -250,6 +265,7 @@ class Simulator {
   // energy of initial_.state.
   struct EnergyBook {
     double externalWork = 0.0, pinWork = 0.0, contactWork = 0.0, airWork = 0.0;
+    double contactEnergy = 0.0;  // change of the contact barriers' energy since the start
     double liveWork = 0.0;    // put in by live changes (continueFrom)
     double liveHeld = 0.0;    // of it, the jump of the kinetic + elastic energy (not in the scale)
     double dissipated = 0.0;  // by the damping model

@@ -410,6 +410,7 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
     if (settings_.selfCollision && !(addPointTriangleBarriers(x, a) && addEdgeEdgeBarriers(x, a))) {
       return kInf;
     }
+    if (stats != nullptr) stats->stored = a.energy - energyStart;
   }
   if (part != Part::Barriers) addFriction(x, a);
   return a.energy;
@@ -433,6 +434,8 @@ bool ContactModel::addObstacleBarriers(const VectorX& x, Assembly& a) {
         (*a.wrench)[k].force += g;  // the cloth pushes the obstacle with +dE/dx
         (*a.wrench)[k].torque += sd.closest.cross(g);
       }
+      // The obstacle's work: the force on the cloth, -g, times the motion of its surface point.
+      if (a.stats != nullptr) a.stats->work -= g.dot(surfaceMotion(k, sd.closest));
       if (a.hessian != nullptr) {
         addBlock(i, i, (a.scale * b.weight * b.along) * (sd.normal * sd.normal.transpose()),
                  a.hessian, a.outside);
@@ -570,6 +573,7 @@ void ContactModel::addFriction(const VectorX& x, Assembly& a) const {
       (*a.wrench)[static_cast<std::size_t>(f.obstacle)].force += g;
       (*a.wrench)[static_cast<std::size_t>(f.obstacle)].torque += f.point.cross(g);
     }
+    if (a.stats != nullptr) addFrictionWork(f, x, g, *a.stats);
     if (a.hessian != nullptr) {
       for (int k = 0; k < f.count; ++k) {
         for (int l = 0; l < f.count; ++l) {
@@ -579,6 +583,25 @@ void ContactModel::addFriction(const VectorX& x, Assembly& a) const {
       }
     }
   }
+}
+
+Eigen::Vector3d ContactModel::surfaceMotion(std::size_t k, const Eigen::Vector3d& p) const {
+  return p - obstacles_->poseStart(k) * (obstacles_->inverseEnd(k) * p);
+}
+
+void ContactModel::addFrictionWork(const Friction& f, const VectorX& x, const Eigen::Vector3d& g,
+                                   ContactStats& stats) const {
+  // The force -g acts on the weighted point sum_k w_k x_k of the contact; the other side (the
+  // obstacle's surface point, or the cloth's other primitive, in the weights) moved by `other`.
+  Eigen::Vector3d moved = Eigen::Vector3d::Zero();
+  for (int k = 0; k < f.count; ++k) {
+    const Index v = f.vertices[static_cast<std::size_t>(k)];
+    moved += f.weights[k] * (vertex(x, v) - vertex(*substepStart_, v));
+  }
+  const Eigen::Vector3d other =
+      f.obstacle >= 0 ? surfaceMotion(static_cast<std::size_t>(f.obstacle), f.point) : Eigen::Vector3d::Zero();
+  stats.work -= g.dot(other);
+  stats.dissipated += g.dot(moved - other);
 }
 
 ContactModel::FrictionShare ContactModel::frictionShare(const Friction& f, const VectorX& x,
@@ -677,18 +700,32 @@ void ContactModel::addVertexFriction(const VectorX& x, Index v, VertexDerivative
 }
 
 void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats) {
-  // Kept from substep to substep (no allocation in a steady step).
-  std::vector<ObstacleWrench>& wrench = finishWrench_;
+  // The forces at the end of the substep are the ones the implicit step applied over it (its
+  // equations of motion hold there): the obstacles' work is each one times the motion of the
+  // obstacle's surface point under it, friction's loss each friction force times the slide
+  // relative to the other side (evaluateAll with stats), the stored energy the barriers' there.
+  std::vector<ObstacleWrench>& wrench = finishWrench_;  // kept: no allocation in a steady step
   wrench.assign(obstacles_->size(), ObstacleWrench{});
-  VectorX& gradient = finishGradient_;
-  gradient.setZero(x.size());
   ContactStats here;
-  evaluateAll(x, &gradient, nullptr, nullptr, 1.0, &wrench, &here);
+  substepStart_ = &x0;
+  evaluateAll(x, nullptr, nullptr, nullptr, 1.0, &wrench, &here);
+  substepStart_ = nullptr;
   obstacles_->setWrenches(wrench);
   stats.contacts = here.contacts;
   stats.minDistance = here.minDistance;
-  stats.work += -gradient.dot(x - x0);
+  stats.work += here.work;
+  stats.dissipated += here.dissipated;
+  stats.stored = here.stored;
   pinned_ = nullptr;
+}
+
+double ContactModel::storedEnergy(const VectorX& x, const std::vector<char>& pinned) {
+  pinned_ = &pinned;
+  obstacles_->beginSubstep(0.0, 0.0);
+  if (settings_.selfCollision) selfCandidates(x, nullptr);
+  const double energy = evaluateAll(x, nullptr, nullptr, nullptr, 1.0, nullptr, nullptr, Part::Barriers);
+  pinned_ = nullptr;
+  return energy;
 }
 
 }  // namespace fem_cloth

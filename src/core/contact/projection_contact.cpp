@@ -93,8 +93,14 @@ void ProjectionContact::finishSubstep(VectorX& x, const VectorX& xStart, double 
     if (k < 0) continue;
     ++contacts;
     const Eigen::Vector3d force = massScale * mass_[i] * vertex(correction_, i) / (h * h);  // on the cloth
-    work += force.dot(vertex(x, i) - vertex(xStart, i));
     const SignedDistance sd = obstacles.distance(static_cast<std::size_t>(k), vertex(x, i), true);
+    // The obstacle's work: the force times the motion of its surface point under the vertex
+    // (zero for a resting obstacle: what the projection does beyond it is the cloth's own
+    // energy change, which acceptance (b) judges).
+    const Eigen::Vector3d surfaceMotion =
+        sd.closest - obstacles.poseStart(static_cast<std::size_t>(k)) *
+                         (obstacles.inverseEnd(static_cast<std::size_t>(k)) * sd.closest);
+    work += force.dot(surfaceMotion);
     wrench[static_cast<std::size_t>(k)].force -= force;
     wrench[static_cast<std::size_t>(k)].torque -= sd.closest.cross(force);
     stats.minDistance = std::min(stats.minDistance, sd.distance);

@@ -99,8 +99,14 @@ class ContactModel {
   /// Builds the per-vertex tables of the current pairs and friction entries (only when they
   /// changed since the last call): the Newton solver, which never asks, does not pay for them.
   void prepareVertexAccess();
-  /// After a converged substep at x (from x0): contacts, work, and the obstacles' wrenches.
+  /// After a converged substep at x (from x0): contacts, the obstacles' wrenches, the work they
+  /// did on the cloth (ContactStats::work: each contact's force times the motion of the
+  /// obstacle's surface point under it), friction's loss, and the barriers' energy at x.
   void finishSubstep(const VectorX& x, const VectorX& x0, ContactStats& stats);
+  /// The barriers' energy kappa B (J) at x with the obstacles where they are at the start of the
+  /// step being taken (ObstacleSet::beginStep): what the energy balance holds in the contact at
+  /// the start of a run. +inf if a distance is zero or negative.
+  double storedEnergy(const VectorX& x, const std::vector<char>& pinned);
 
   /// Distance evaluations so far, the obstacles' included (never reset: callers take differences).
   std::uint64_t checks() const { return checks_ + obstacles_->checks(); }
@@ -144,6 +150,12 @@ class ContactModel {
   /// farthest from every obstacle at the end; size() if none does, or if staying is farther.
   std::size_t carryingObstacle(const Eigen::Vector3d& p);
   FrictionShare frictionShare(const Friction& f, const VectorX& x, bool wantHessian) const;
+  /// The displacement over the substep of obstacle k's surface point that is at p at its end.
+  Eigen::Vector3d surfaceMotion(std::size_t k, const Eigen::Vector3d& p) const;
+  /// A friction entry's share of the obstacles' work and of friction's loss (finishSubstep), g
+  /// its gradient at x.
+  void addFrictionWork(const Friction& f, const VectorX& x, const Eigen::Vector3d& g,
+                       ContactStats& stats) const;
   /// The parts of vertexDerivatives (added to out); false when a distance is not positive.
   bool addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const;
   void addVertexFriction(const VectorX& x, Index v, VertexDerivatives& out) const;
@@ -184,7 +196,8 @@ class ContactModel {
   std::shared_ptr<const Mesh> mesh_;
   VectorX mass_;  // per vertex (kg)
   // Work storage of startingPoint() and finishSubstep(), kept to allocate nothing per step.
-  VectorX startStep_, startFree_, finishGradient_;
+  VectorX startStep_, startFree_;
+  const VectorX* substepStart_ = nullptr;  // finishSubstep's x0, for friction's loss
   std::vector<ObstacleWrench> finishWrench_;
   std::shared_ptr<ObstacleSet> obstacles_;
   ContactSettings settings_;

@@ -40,7 +40,16 @@ struct ObstacleWrench {
 /// What contact handling did in a (sub)step.
 struct ContactStats {
   int contacts = 0;           ///< pairs closer than dHat (implicit) or vertices projected (others)
-  double work = 0.0;          ///< J, work of the contact and friction forces on the cloth
+  /// J, work the obstacles did on the cloth: each contact's force on the cloth (barrier or
+  /// projection, and friction) times the displacement of the obstacle's surface point under it
+  /// over the substep. Zero for resting obstacles and for self-contact (internal forces).
+  double work = 0.0;
+  /// J, energy friction removed: minus each friction force times the cloth's displacement
+  /// relative to the other side (obstacle or cloth), >= 0 (implicit steppers; the projection's
+  /// friction and inelastic loss are not measured apart, they show as numerical dissipation).
+  double dissipated = 0.0;
+  /// J, energy stored in the barriers at the end of the substep (implicit steppers; 0 otherwise).
+  double stored = 0.0;
   double minDistance = std::numeric_limits<double>::infinity();  ///< m, over contacts considered
 };
 

@@ -38,7 +38,8 @@ class ProjectionContact {
   /// displacement since xStart, relative to the obstacle's surface, loses its tangential part up
   /// to mu x normal push; x and the correction change accordingly), then the contact force
   /// massScale m correction / h^2 on each vertex (massScale = 1 + h alpha with implicit mass
-  /// damping alpha, which scales the inertia of the update), its work over x - xStart, the
+  /// damping alpha, which scales the inertia of the update), the obstacles' work (that force
+  /// times the motion of the obstacle's surface point under the vertex: ContactStats::work), the
   /// obstacles' wrenches and the contact count.
   void finishSubstep(VectorX& x, const VectorX& xStart, double h, double massScale, ContactStats& stats);
   /// The displacement (per DOF, m) projection and friction gave x in this substep.

@@ -170,10 +170,12 @@ struct AcceptanceSettings {
 
 /// The energy account of one attempt (J), as the simulator books it.
 struct EnergyStep {
-  double start = 0.0, end = 0.0;  ///< mechanical energy before and after
+  /// Mechanical energy before and after: kinetic + elastic + gravity + the contact barriers'.
+  double start = 0.0, end = 0.0;
+  double contactStored = 0.0;     ///< of end - start, the change of the contact barriers' energy
   double held = 0.0;              ///< kinetic + elastic energy held (the larger of before, after)
   double externalWork = 0.0, pinWork = 0.0, contactWork = 0.0, airWork = 0.0;  ///< work put in
-  double dissipated = 0.0;        ///< removed by the damping model
+  double dissipated = 0.0;        ///< removed by the damping model and by friction
   double work() const { return externalWork + pinWork + contactWork + airWork; }
   /// Energy the attempt created (negative: numerical dissipation).
   double created() const { return end - start - work() + dissipated; }

@@ -147,7 +147,7 @@ struct StepReport {
   int tightened = 0;
   bool energyRefused = false;  ///< the attempt failed test (b), energy created
   int iterations = 0;  ///< local solver iterations (XPBD sweeps, projective dynamics iterations)
-  double dissipated = 0.0;  ///< energy removed by the damping model in this step (J)
+  double dissipated = 0.0;  ///< energy removed by the damping model and by friction in this step (J)
   /// Work of the pins on the cloth in this step (J): each substep's pin force (the one its
   /// equations of motion hold at their end) times the pins' displacement in it; symplectic and
   /// backward Euler book the pinned vertices' kinetic energy exactly (step_common.h,
@@ -156,7 +156,14 @@ struct StepReport {
   double dtUsed = 0.0;      ///< the (sub)step size of the last successful attempt (s)
   int contacts = 0;         ///< contacts at the end of the step (closer than the contact distance)
   std::uint64_t contactChecks = 0;  ///< distance evaluations for contact; 0 without contact
-  double contactWork = 0.0;  ///< work of the contact and friction forces on the cloth (J)
+  /// Work the obstacles did on the cloth (J): each contact force on the cloth (barrier or
+  /// projection, friction included) times the motion of the obstacle's surface point under it
+  /// (ContactStats::work); 0 for resting obstacles and for self-contact. Friction's loss is in
+  /// `dissipated`, the barriers' energy in contactEnergy.
+  double contactWork = 0.0;
+  /// Energy stored in the contact barriers at the end of the step (J; implicit steppers, which
+  /// have barriers; 0 for the others): part of the energy acceptance (b) balances.
+  double contactEnergy = 0.0;
   /// Work of the air on the cloth (J; negative when it only drags, positive when wind pushes):
   /// each substep's air force times the displacement in it.
   double airWork = 0.0;

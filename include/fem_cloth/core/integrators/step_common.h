@@ -42,17 +42,20 @@ inline void addMassDampingDissipation(double h, double alpha, const VectorX& v, 
   if (alpha > 0.0) report.dissipated += massDampingDissipation(h, alpha, v, mass);
 }
 
-/// True when positions and velocities are finite; otherwise the report fails, saying which
-/// integrator lost the state (the caller returns it and the simulator restores the state). The
-/// name is a C string, made into a std::string only on failure: steps allocate nothing.
-/// A substep's contact statistics into the step's report: the contacts and the smallest distance
-/// at its end, its contact work added.
+/// A substep's contact statistics into the step's report: the contacts, the smallest distance
+/// and the barriers' stored energy at its end; the obstacles' work and the friction's
+/// dissipation added.
 inline void recordContact(const ContactStats& stats, StepReport& report) {
   report.contacts = stats.contacts;
   report.minContactDistance = stats.minDistance;
   report.contactWork += stats.work;
+  report.dissipated += stats.dissipated;
+  report.contactEnergy = stats.stored;
 }
 
+/// True when positions and velocities are finite; otherwise the report fails, saying which
+/// integrator lost the state (the caller returns it and the simulator restores the state). The
+/// name is a C string, made into a std::string only on failure: steps allocate nothing.
 inline bool stateIsFinite(const State& state, const char* integrator, StepReport& report) {
   if (state.x.allFinite() && state.v.allFinite()) return true;
   report.ok = false;
