@@ -207,9 +207,10 @@ std::vector<std::string> generalIntegrators() {
 // - linear: the sagging cloth rotates its elements (the linear strain (F + F^T)/2 - I is not
 //   rotation invariant), |F - T| reaches ~0.2, twice the model's validity limit 0.1 (test c);
 //   it used to be accepted with an extra stretch that no material has;
-// - BDF2 on Neo-Hookean: on the slivers (quality 1e-5) at 1000x stiffness its Newton solve
-//   does not balance the forces (test a) even at 32 substeps; it used to be accepted after a short
-//   last Newton step with the forces unbalanced.
+// - Neo-Hookean: on the slivers (quality 1e-5) at 1000x stiffness it used to be accepted after a
+//   short last Newton step with the forces unbalanced. With acceptance (a) in displacement (issue
+//   29) BDF2 completes (the forces left move the slivers by less than the tolerance), and either
+//   integrator is held to the same bounds as the other materials when it does.
 // - Backward Euler on Neo-Hookean there balances or refuses depending on round-off: its projected
 //   Newton steps, shorter than the tolerance, alternate between forces of ~700 and ~18000 times a
 //   vertex's force scale on the compressed slivers (the clamped Hessian is not the energy's), and
@@ -229,17 +230,11 @@ TEST(Claims, StableCellsStayFiniteAndBounded) {
             << r.run.error;
         continue;
       }
-      if (integrator == "backward_euler" && material == "neo_hookean" && r.verdict == "failed") {
+      if (material == "neo_hookean" && r.verdict == "failed") {
         EXPECT_TRUE(contains(r.run.error, "Newton did not converge") && contains(r.run.error, "unbalanced force") &&
                     contains(r.run.error, "the state is unchanged"))
             << r.run.error;
         EXPECT_LE(r.run.energyGrowth, 1e-6) << integrator << " " << material;
-        continue;
-      }
-      if (integrator == "bdf2" && material == "neo_hookean") {
-        EXPECT_EQ(r.verdict, "failed");
-        EXPECT_TRUE(contains(r.run.error, "Newton did not converge") && contains(r.run.error, "unbalanced force"))
-            << r.run.error;
         continue;
       }
       EXPECT_TRUE(r.verdict == "stable" || r.verdict == "recovered")
@@ -397,10 +392,20 @@ TEST(Claims, InversionAwareModelsHaveARidgeAtAPureReflection) {
   EXPECT_NEAR(left, 4.0 * lame.mu + 2.0 * lame.lambda, 1e-3 * lame.mu);
   EXPECT_NEAR(right, -2.0 * lame.lambda, 1e-3 * lame.mu);
   for (const std::string material : {"corotational", "arap"}) {
+    // At the small step Newton's iterates straddle the ridge, where the force jumps and never
+    // balances; the displacement test (acceptance (a)) accepts an iterate within its tolerance
+    // of the minimum on the ridge. So either a clear refusal or a run that creates no energy
+    // (measured 2026-12, issue 29: corotational completes after 4 rollbacks, its edges stretched
+    // up to 160 % while the inverted half's stored energy is released, against 11 % at dt 1e-2
+    // where backward Euler damps it; ARAP still refuses).
     const CellResult r = cell("inverted", material, "cotton", "backward_euler", 1e-3);
-    EXPECT_EQ(r.verdict, "failed") << material;
-    EXPECT_TRUE(contains(r.run.error, "Newton did not converge") || contains(r.run.error, "line search"))
-        << r.run.error;
+    if (r.verdict == "failed") {
+      EXPECT_TRUE(contains(r.run.error, "Newton did not converge") || contains(r.run.error, "line search"))
+          << r.run.error;
+    } else {
+      EXPECT_TRUE(r.verdict == "stable" || r.verdict == "recovered") << material << ": " << r.verdict << " " << r.run.error;
+      EXPECT_LE(r.run.energyGrowth, 1e-6) << material;
+    }
     // With larger steps the elastic force carries the step off the ridge.
     const CellResult large = cell("inverted", material, "cotton", "backward_euler", 1e-2);
     EXPECT_EQ(large.verdict, "stable") << material << ": " << large.run.error;

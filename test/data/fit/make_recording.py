@@ -67,13 +67,27 @@ def base_scene(sim, bag, changes, out):
         return String(f.read())
 
 
+def run_start(states, dt=0.01):
+    """The ROS time of step 0 of a recorded run (dt: the commands bag's integrator.dt). A node
+    started paused publishes its step-0 state when it starts, but its time origin moves to the
+    moment it is resumed (docs/node.md, Time): the first state after step 0 tells when that was,
+    its stamp less its steps' time. Without one, the step-0 state's stamp."""
+    import rospy
+    first = None
+    for state in states:
+        first = first or state
+        if state.step > 0:
+            return state.header.stamp - rospy.Duration.from_sec(state.step * dt)
+    return first.header.stamp
+
+
 def write_commands(sim, out, scene_changes, scene_path):
-    """The commands of small_grasp.bag without its states, starting at its first state: the node
-    was started paused, and a replay of a bag without states starts at its first message (scene,
-    mesh and /tf_static are moved to that time, /tf keeps its last message before it)."""
+    """The commands of small_grasp.bag without its states, starting where its run started: the
+    node was started paused, and a replay of a bag without states starts at its first message
+    (scene, mesh and /tf_static are moved to that time, /tf keeps its last message before it)."""
     import rosbag
     with rosbag.Bag(COMMANDS) as source, rosbag.Bag(out, "w", compression="lz4") as bag:
-        start = next(msg for _, msg, _ in source.read_messages(topics=[f"{NODE}/state"])).header.stamp
+        start = run_start(msg for _, msg, _ in source.read_messages(topics=[f"{NODE}/state"]))
         scene = base_scene(sim, source, scene_changes, scene_path)
         last_tf = None
         for topic, msg, t in source.read_messages():
