@@ -168,16 +168,7 @@ class MembraneTerm final : public EnergyTerm, public ConstraintForm, public Proj
 #pragma omp parallel for schedule(static) if (m >= kParallelElementThreshold)
       for (Index t = 0; t < m; ++t) {
         const DefGrad<3> F = deformationGradient<3>(*mesh_, *rest_, x, t);
-        // Closest rotation (3 x 2, orthonormal columns): F = Q R2 with R2 upper triangular,
-        // whose 2 x 2 polar rotation has angle atan2(-r12, r11 + r22).
-        const Eigen::Matrix<double, 3, 2> Q = planeBasis(F);
-        const Eigen::Matrix2d R2 = Q.transpose() * F;
-        const double c0 = R2(0, 0) + R2(1, 1), s0 = -R2(0, 1);
-        const double norm = std::sqrt(c0 * c0 + s0 * s0);  // no overflow at these sizes
-        const double c = norm > 0.0 ? c0 / norm : 1.0, s = norm > 0.0 ? s0 / norm : 0.0;
-        Eigen::Matrix2d rot;
-        rot << c, -s, s, c;
-        const DefGrad<3> R = Q * rot;
+        const DefGrad<3> R = polarRotation3x2(F);  // the closest rotation (svd.h)
         const double w = 2.0 * model_.mu() * rest_->restArea[t];
         for (int a = 0; a < 3; ++a) {
           gradient_[t].template segment<3>(3 * a) = w * (R * rest_->shapeGradients[t].row(a).transpose());

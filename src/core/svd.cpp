@@ -58,6 +58,18 @@ Eigen::Matrix<double, 3, 2> planeBasis(const Eigen::Matrix<double, 3, 2>& F) {
   return Q;
 }
 
+Eigen::Matrix<double, 3, 2> polarRotation3x2(const Eigen::Matrix<double, 3, 2>& F) {
+  const Eigen::Matrix<double, 3, 2> Q = planeBasis(F);
+  const double a = Q.col(0).dot(F.col(0)), b = Q.col(0).dot(F.col(1)), d = Q.col(1).dot(F.col(1));
+  const double c0 = a + d, s0 = -b;
+  const double norm = std::sqrt(c0 * c0 + s0 * s0);  // entries of F: no overflow
+  const double c = norm > 0.0 ? c0 / norm : 1.0, s = norm > 0.0 ? s0 / norm : 0.0;
+  Eigen::Matrix<double, 3, 2> R;
+  R.col(0) = c * Q.col(0) + s * Q.col(1);
+  R.col(1) = -s * Q.col(0) + c * Q.col(1);
+  return R;
+}
+
 Svd<3> svd3x2(const Eigen::Matrix<double, 3, 2>& F) {
   const Eigen::Matrix<double, 3, 2> Qm = planeBasis(F);
   // R = Q^T F is upper triangular: r21 = q2 . f1 = 0 by construction.

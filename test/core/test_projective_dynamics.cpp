@@ -54,21 +54,24 @@ TEST(ProjectiveDynamics, ConvergedItIsBackwardEulerOnArap) {
   EXPECT_LT(fine, 1e-8);
 }
 
-// A fixed number of iterations per step (the check of the unbalanced forces off, so that PD
-// stops at that count, as it did before issue 11): the error against the converged step shrinks
-// as the count grows (each local/global iteration lowers the incremental potential, Bouaziz et al.
-// 2014). With the check on (the default), PD iterates on until the forces balance: from any
-// starting count it ends closer to the converged step than 32 fixed iterations get, with every
-// step's unbalanced force within the 1 % bound.
+// A fixed number of iterations per step (acceptance test (a) off, so that PD stops at that
+// count, as it did before issue 11): the error against the converged step shrinks as the count
+// grows (each local/global iteration lowers the incremental potential, Bouaziz et al. 2014). With
+// the test on (the default), PD iterates on until its error in displacement is within the test:
+// from any starting count, with every step's error measured and within its bound, it ends within
+// a quarter of backward Euler's own error (the converged steps at dt against dt/8) of the
+// converged step, which is what the test's default error_ratio 0.1 promises (docs/integrators.md).
 namespace {
 
-Simulation withFixedIterations(int iterations) {
-  Expected<Simulation> sim = build(arap("projective_dynamics"));
+Simulation withFixedIterations(int iterations, const std::string& dt = "0.01") {
+  Expected<Simulation> sim = build(arap("projective_dynamics", {"integrator.dt=" + dt}));
   EXPECT_TRUE(sim.ok());
   ProjectiveDynamicsSettings settings;
   settings.iterations = settings.maxIterations = iterations;
   SimulatorSettings simulatorSettings = sim->simulator->settings();
   simulatorSettings.acceptance.forceTolerance = std::numeric_limits<double>::infinity();
+  simulatorSettings.acceptance.displacement.ratio = std::numeric_limits<double>::infinity();
+  simulatorSettings.acceptance.displacement.cap = std::numeric_limits<double>::infinity();
   sim->simulator = std::make_unique<Simulator>(sim->model, std::make_unique<ProjectiveDynamics>(settings),
                                                simulatorSettings);
   for (Index v : {0, 8}) EXPECT_TRUE(sim->simulator->pinInPlace(v).ok());
@@ -80,6 +83,9 @@ Simulation withFixedIterations(int iterations) {
 TEST(ProjectiveDynamics, FewerIterationsAreSofterButConvergeMonotonically) {
   Simulation reference = withFixedIterations(3000);
   for (int k = 0; k < 10; ++k) ASSERT_TRUE(reference.simulator->step().ok);
+  Simulation fine = withFixedIterations(3000, "0.00125");
+  for (int k = 0; k < 80; ++k) ASSERT_TRUE(fine.simulator->step().ok);
+  const double schemeError = (fine.simulator->state().x - reference.simulator->state().x).norm();
   double previous = 1e300, fixed32 = 0.0;
   for (int iterations : {2, 8, 32, 128}) {
     Simulation pd = withFixedIterations(iterations);
@@ -95,11 +101,13 @@ TEST(ProjectiveDynamics, FewerIterationsAreSofterButConvergeMonotonically) {
     for (int k = 0; k < 10; ++k) {
       const StepReport r = pd->simulator->step();
       ASSERT_TRUE(r.ok) << r.error;
-      EXPECT_LE(r.unbalanced.relative, 0.01);
+      EXPECT_TRUE(r.displacement.measured());
+      EXPECT_LE(r.displacement.relative, 1.0);
     }
     const double error = (pd->simulator->state().x - reference.simulator->state().x).norm();
-    std::cout << "from " << iterations << " iterations on: error " << error << " (32 fixed: " << fixed32 << ")\n";
-    EXPECT_LT(error, fixed32) << iterations << " iterations";
+    std::cout << "from " << iterations << " iterations on: error " << error << " (32 fixed: " << fixed32
+              << "; backward Euler's own error " << schemeError << ")\n";
+    EXPECT_LT(error, 0.25 * schemeError) << iterations << " iterations";
   }
 }
 

@@ -186,18 +186,36 @@ TEST(Svd3x2, DegenerateInputsStayFiniteAndReconstruct) {
   }
 }
 
-TEST(Svd3x2, PolarRotationIsOrthonormalAndMatchesTheInverseSquareRoot) {
-  RandomMatrices random(15);
+// R has orthonormal columns and, for a full-rank F, is the polar factor F (F^T F)^(-1/2).
+template <class Rotation>
+void expectPolarFactors(unsigned seed, Rotation rotation) {
+  RandomMatrices random(seed);
   for (int k = 0; k < 200; ++k) {
     const DefGrad<3> F = random.matrix<3, 2>(-2.0, 2.0);
-    const DefGrad<3> R = svd3x2(F).rotation();
+    const DefGrad<3> R = rotation(F);
     EXPECT_LT((R.transpose() * R - Eigen::Matrix2d::Identity()).cwiseAbs().maxCoeff(), kTol);
-    // For a full-rank F the polar factor is R = F (F^T F)^(-1/2).
     const Eigen::Matrix2d C = F.transpose() * F;
     if (C.determinant() < 1e-6) continue;
     const Eigen::Matrix2d inverseRoot =
         Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(C).operatorInverseSqrt();
     EXPECT_LT((R - F * inverseRoot).cwiseAbs().maxCoeff(), 1e-9) << F;
+  }
+}
+
+TEST(Svd3x2, PolarRotationIsOrthonormalAndMatchesTheInverseSquareRoot) {
+  expectPolarFactors(15, [](const DefGrad<3>& F) { return DefGrad<3>(svd3x2(F).rotation()); });
+}
+
+// The SVD-free rotation the ARAP membrane and projective dynamics use: the same polar factor,
+// checked against F (F^T F)^(-1/2) from Eigen's eigensolver, and finite where F loses rank.
+TEST(Svd3x2, PolarRotationWithoutTheSvdMatchesTheInverseSquareRoot) {
+  expectPolarFactors(16, [](const DefGrad<3>& F) { return polarRotation3x2(F); });
+  DefGrad<3> collapsed = DefGrad<3>::Zero();
+  collapsed(0, 0) = 1.0;  // the second column gone
+  for (const DefGrad<3>& F : {DefGrad<3>(DefGrad<3>::Zero()), collapsed}) {
+    const DefGrad<3> R = polarRotation3x2(F);
+    EXPECT_TRUE(R.allFinite());
+    EXPECT_LT((R.transpose() * R - Eigen::Matrix2d::Identity()).cwiseAbs().maxCoeff(), kTol);
   }
 }
 

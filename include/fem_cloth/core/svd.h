@@ -35,6 +35,13 @@ struct Svd {
 /// completing vectors are used where F is rank deficient.
 Eigen::Matrix<double, 3, 2> planeBasis(const Eigen::Matrix<double, 3, 2>& F);
 
+/// The rotation R (3 x 2, orthonormal columns) of the polar decomposition F = R S of a cloth
+/// triangle's F, the same as svd3x2(F).rotation() without the SVD's trigonometry: R = Q r with Q
+/// = planeBasis(F) and r the 2 x 2 polar rotation of the upper-triangular Q^T F = [[a, b], [0, d]]
+/// (a, d >= 0), whose cosine and sine are (a + d, -b) normalised. The identity's columns in the
+/// plane where F = 0.
+Eigen::Matrix<double, 3, 2> polarRotation3x2(const Eigen::Matrix<double, 3, 2>& F);
+
 /// Inversion-aware 2 x 2 SVD (closed form, no iteration).
 Svd<2> svd2(const Eigen::Matrix2d& F);
 /// Thin SVD of a 3 x 2 matrix.

@@ -19,13 +19,28 @@ class Arap : public IsotropicModel<Arap> {
 
   template <int D>
   double psi(const DefGrad<D>& F, const DefGrad<D>& /*T*/) const {
-    return mu_ * (computeSvd<D>(F).sigma.array() - 1.0).square().sum();
+    if constexpr (D == 3) {
+      // |F - R|^2 = |U (Sigma - I) V^T|^2 = sum (s_i - 1)^2, with R without the SVD.
+      return mu_ * (F - polarRotation3x2(F)).squaredNorm();
+    } else {
+      return mu_ * (computeSvd<D>(F).sigma.array() - 1.0).square().sum();
+    }
   }
 
   /// P = 2 mu (F - R).
   template <int D>
   DefGrad<D> pk1(const DefGrad<D>& F, const DefGrad<D>& /*T*/) const {
-    return 2.0 * mu_ * (F - computeSvd<D>(F).rotation());
+    return 2.0 * mu_ * (F - rotation<D>(F));
+  }
+
+  /// R of the polar decomposition: for cloth without the SVD's trigonometry (svd.h).
+  template <int D>
+  static DefGrad<D> rotation(const DefGrad<D>& F) {
+    if constexpr (D == 3) {
+      return polarRotation3x2(F);
+    } else {
+      return computeSvd<D>(F).rotation();
+    }
   }
 
   SigmaEigensystem sigmaEigensystem(const Eigen::Vector2d& s, bool cloth) const {
