@@ -346,10 +346,20 @@ TEST_P(Contact, RisingTableDoesTheWorkOfLiftingTheCloth) {
 // work, so the balance held and the run ended ok with the cloth 0.43 m up in 0.3 s. A resting
 // table does no work: what the projection puts in is energy created, which acceptance (b)
 // refuses, naming it; the cloth is never thrown.
+// Since issue 30 part 3 a scene that starts the cloth there is refused when it is built (before
+// step 1, naming the table, the vertex and its gap against d̂); a state set afterwards (as a
+// replay or a live change may) is not, and the acceptance still catches what it puts in.
 TEST(ContactWork, EnergyCreatedByTheProjectionIsRefused) {
-  Scene scene = clothOnTable("symplectic_euler", 5, 0.2, 0.5 * kDistance, 0.0);
-  Simulation sim = mustBuild(scene);
+  const Expected<Simulation> refused = buildSimulation(clothOnTable("symplectic_euler", 5, 0.2, 0.5 * kDistance, 0.0));
+  ASSERT_FALSE(refused.ok());
+  for (const std::string m : {"obstacles[0] ('table')", "vertex 0 starts", "within contact.distance", "backward_euler, bdf2"}) {
+    EXPECT_NE(refused.error().find(m), std::string::npos) << refused.error();
+  }
+  Simulation sim = mustBuild(clothOnTable("symplectic_euler", 5, 0.2, 1.5 * kDistance, 0.0));
   Simulator& s = *sim.simulator;
+  VectorX x = s.state().x;
+  for (Eigen::Index i = 2; i < x.size(); i += 3) x[i] -= kDistance;  // to d̂/2 above the table
+  ASSERT_TRUE(s.setInitialState(x, VectorX()).ok());
   double highest = 0.0;
   const std::string error = run(sim, 30, [&](int, const StepReport&) {
     highest = std::max(highest, massMean(s.model(), s.state().x).z());

@@ -666,6 +666,18 @@ TEST(SceneYaml, TheContactDistanceFitsTheRestGaps) {
   ASSERT_TRUE(close.ok()) << close.error();
   expectError(buildSimulation(*close).error(),
               {"contact.distance (0.0021 m)", "more than twice the gap", "vertex 0", "'floor'", "0.001 m"});
+  // Issue 30: the explicit steppers' projection would throw a vertex closer than dHat out to it
+  // in the first step: refused before it, naming the integrators whose barriers hold it.
+  const Expected<Scene> projected =
+      parse(variant("integrator.name", "symplectic_euler") + "\n" + floor + "contact: {distance: 0.0015}\n");
+  ASSERT_TRUE(projected.ok()) << projected.error();
+  expectError(buildSimulation(*projected).error(),
+              {"'floor'", "vertex 0 starts 0.001 m", "within contact.distance (0.0015 m)",
+               "symplectic_euler", "backward_euler, bdf2"});
+  const Expected<Scene> clear =
+      parse(variant("integrator.name", "symplectic_euler") + "\n" + floor + "contact: {distance: 0.001}\n");
+  ASSERT_TRUE(clear.ok()) << clear.error();
+  EXPECT_TRUE(buildSimulation(*clear).ok()) << "a vertex at dHat is where the projection puts it";
   const Expected<Scene> wide = parse(std::string(kBase) + "obstacles: [{type: plane, point: [0, 0, -1]}]\n"
                                      "contact: {distance: 0.26}\n");
   ASSERT_TRUE(wide.ok()) << wide.error();
