@@ -331,15 +331,16 @@ INSTANTIATE_TEST_SUITE_P(EveryMaterial, HangingStrip, ::testing::ValuesIn(materi
 // no in-plane force, comes to rest at d = dHat/2 = 1 mm: z = 0.751 m. L-BFGS, with the barriers'
 // and friction's blocks in its initial Hessian, converges in every substep without Newton and
 // ends where Newton does (the bound of AgreesWithNewton).
-SolvedRun clothOnTable(const std::string& solver) {
+SolvedRun clothOnTable(const std::string& solver, bool tight = true, double height = 0.0015, bool contactBlocks = true) {
   Scene scene = loadScene(std::string(FEM_CLOTH_CONFIG_DIR) + "/table_drape.yaml",
                           {"integrator.solver=" + solver, "integrator.lbfgs_max_iterations=10000",
                            "contact.stiffness=9.81", "contact.distance=0.002", "damping.mass=0"})
                     .value();
   scene.grid.rows = scene.grid.cols = 9;
   scene.grid.width = scene.grid.height = 0.3;
-  scene.grid.origin = {-0.15, -0.15, 0.7515};
-  tightTolerance(scene);
+  scene.grid.origin = {-0.15, -0.15, 0.75 + height};
+  if (tight) tightTolerance(scene);
+  scene.integratorOptions.edit<ImplicitSolverSettings>("backward_euler").lbfgs.contact.traceInFactor = contactBlocks;
   Simulation sim = mustBuild(scene);
   Simulator& s = *sim.simulator;
   SolvedRun out;
@@ -350,14 +351,18 @@ SolvedRun clothOnTable(const std::string& solver) {
   return out;
 }
 
+// Every vertex within 1 % of the rest distance dHat/2 = 1 mm above the table top.
+void expectRestingAtHalfTheContactDistance(const SolvedRun& r, const std::string& what) {
+  const double rest = 0.75 + 0.5 * 0.002;
+  double worst = 0.0;
+  for (Index v = 0; v < r.x.size() / 3; ++v) worst = std::max(worst, std::abs(r.x[3 * v + 2] - rest));
+  EXPECT_LT(worst, 1e-5) << what;
+}
+
 TEST(Contact, ClothRestsOnATableAtHalfTheContactDistance) {
   const SolvedRun newton = clothOnTable("newton"), lbfgs = clothOnTable("lbfgs");
-  const double rest = 0.75 + 0.5 * 0.002;
-  for (const SolvedRun* r : {&newton, &lbfgs}) {
-    double worst = 0.0;
-    for (Index v = 0; v < r->x.size() / 3; ++v) worst = std::max(worst, std::abs(r->x[3 * v + 2] - rest));
-    EXPECT_LT(worst, 1e-5) << (r == &newton ? "newton" : "lbfgs");  // 1 % of the rest distance
-  }
+  expectRestingAtHalfTheContactDistance(newton, "newton");
+  expectRestingAtHalfTheContactDistance(lbfgs, "lbfgs");
   const double difference = worstVertex(newton.x, lbfgs.x), bound = 10.0 * 2.0 * lbfgs.tolerance;
   std::cout << "cloth on a table: Newton " << newton.newton << " iterations, L-BFGS " << lbfgs.quasiNewton
             << " iterations (" << lbfgs.fallbacks << " fallbacks); they differ by " << difference
@@ -365,6 +370,18 @@ TEST(Contact, ClothRestsOnATableAtHalfTheContactDistance) {
   EXPECT_GT(lbfgs.quasiNewton, 0);
   EXPECT_EQ(lbfgs.fallbacks, 0);
   EXPECT_LE(difference, bound);
+}
+
+// The same cloth dropped from 5 mm above the table at the default tolerance: the contact blocks
+// in B0 (trace / 3 on its diagonal, the default) save L-BFGS iterations against the B0 without
+// them (measured: 131 against 141 over the 30 steps), and the cloth still comes to rest at dHat/2.
+TEST(Contact, BlocksInTheInitialHessianSaveIterationsOnLanding) {
+  const SolvedRun with = clothOnTable("lbfgs", false, 0.005, true), without = clothOnTable("lbfgs", false, 0.005, false);
+  std::cout << "landing: L-BFGS " << with.quasiNewton << " iterations with the contact blocks ("
+            << with.fallbacks << " fallbacks), " << without.quasiNewton << " without (" << without.fallbacks << ")\n";
+  expectRestingAtHalfTheContactDistance(with, "with blocks");
+  EXPECT_EQ(with.fallbacks, 0);
+  EXPECT_LT(with.quasiNewton, without.quasiNewton);
 }
 
 }  // namespace fem_cloth::test
