@@ -295,7 +295,24 @@ bool ImplicitIntegrator::quasiNewton(const StepInput& input, const NewtonProblem
   const double alpha = massDamped_ ? input.damping.massProportional : 0.0;
   const double beta = stiffnessDamped_ ? input.damping.stiffnessProportional : 0.0;
   std::string error;
-  if (!initialHessian_.prepare(*model_, *pinned_, 1.0 + c2 * gamma * alpha, c2 * (1.0 + gamma * beta), &error)) {
+  InitialHessian::ContactSource source;
+  if (contact_ != nullptr) {
+    // The barriers' and friction's 3 x 3 blocks (PSD), weighted by c^2 as Phi weights them.
+    source = [this, c2](const VectorX& x, std::vector<InitialHessian::ContactBlock>& blocks) {
+      contact_->prepareVertexAccess();
+      const std::vector<char>& pinned = *pinned_;
+      const int d = model_->dim();
+      VertexDerivatives vd;
+      for (Index v = 0; v < model_->numVertices(); ++v) {
+        if (pinned[d * v] || !contact_->vertexDerivatives(x, v, vd)) continue;
+        if (vd.hessian.isZero(0.0)) continue;
+        blocks.push_back({v, c2 * vd.hessian});
+      }
+    };
+  }
+  initialHessian_.setContact(std::move(source), lbfgs_.settings().contact);
+  if (!initialHessian_.prepare(*model_, *pinned_, 1.0 + c2 * gamma * alpha, c2 * (1.0 + gamma * beta),
+                               iterate_.x, &error)) {
     report.error = name() + ": " + error;
     return false;
   }

@@ -124,6 +124,7 @@ NewtonOutcome QuasiNewtonSolver::solve(const NewtonProblem& problem, InitialHess
     }
     freeGradient(problem, it);
     history_.add(it.x, xOld_, g_, gOld_);
+    if (!initial.refreshContact(it.x)) return fail("the initial Hessian with the contact blocks could not be factorised");
     direction(initial, outcome.times);
     if (converged(problem, it, moved, outcome)) break;
   }

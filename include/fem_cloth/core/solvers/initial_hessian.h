@@ -17,8 +17,22 @@
 // removed.
 // B0 is factorised once (ScalarCholesky) and refactorised only when the pinned vertices, a or b
 // change (a new step size, damping), or invalidate() says the model did (a stiffness changed).
+//
+// Contact (setContact): the barriers' and friction's 3 x 3 Hessian blocks D_v at the vertices in
+// contact (c^2-weighted, PSD) stand for H0 ~ B0 x I3 + D, D block diagonal. B0 is scalar (one
+// matrix for x, y and z) and a barrier's block is not (stiff along its normal). By default
+// (ContactOptions, measured in docs/integrators.md, Quasi-Newton) each block's trace / 3 goes into
+// the scalar matrix's diagonal, taken at the substep's first iterate and kept through the substep,
+// and B0 is refactorised when that diagonal changes (an n x n numeric factorisation, cheap against
+// the iterations it saves). Measured and kept as options: conjugate gradients on (B0 x I3 + D) z = q
+// preconditioned by the factor (started from z = 0, so that q.z > 0 and -H g still descends; D
+// can then follow every iterate without a refactorisation), and retaking the trace at every
+// iterate. Both took more iterations or more time on the contact scenes: CG makes H0 depend on q
+// (not one matrix), which the L-BFGS pairs do not model.
 #pragma once
 
+#include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -30,6 +44,19 @@ namespace fem_cloth {
 class InitialHessian {
  public:
   using Matrix = ScalarCholesky::Matrix;
+  struct ContactBlock {
+    Index vertex = 0;
+    Eigen::Matrix3d block = Eigen::Matrix3d::Zero();  ///< c^2-weighted, PSD (Phi's units per m^2)
+  };
+  struct ContactOptions {
+    bool traceInFactor = true;  ///< add trace(D_v) / traceDivisor to B0's diagonal (refactorises on change)
+    double traceDivisor = 3.0;
+    bool followIterate = false;  ///< with traceInFactor: retake D (and refactorise) at every iterate
+    int pcgIterations = 0;       ///< CG iterations on (B0 x I3 + D) per application; 0: the factor alone
+    double pcgTolerance = 1e-2;  ///< stop earlier when the preconditioned residual fell by this
+  };
+  /// Fills the contact's blocks at positions x (the free vertices with a nonzero block).
+  using ContactSource = std::function<void(const VectorX& x, std::vector<ContactBlock>& blocks)>;
   /// The mean over the three coordinates. The partial trace of an isotropic membrane's rest
   /// Hessian is (3 mu + lambda) A g_a.g_b per triangle, that of ARAP 3 mu A g_a.g_b (g the shape
   /// gradients), so L is mu A g_a.g_b for ARAP, half projective dynamics' 2 mu A g_a.g_b. A
@@ -43,15 +70,30 @@ class InitialHessian {
   void invalidate();
   /// Readies B0 for a substep (builds L on first use, refactorises when needed); false with
   /// `error` set if the matrix is not SPD.
-  bool prepare(Model& model, const std::vector<char>& pinned, double a, double b, std::string* error);
-  /// z = B0^-1 q on the free DOFs, zero on pinned ones.
+  bool prepare(Model& model, const std::vector<char>& pinned, double a, double b, const VectorX& x,
+               std::string* error);
+  /// z = H0 q on the free DOFs, zero on pinned ones: B0^-1 q, or with contact blocks the CG
+  /// approximation of (B0 x I3 + D)^-1 q.
   void applyInverse(const VectorX& q, VectorX& z);
+  /// The contact for the substep: `source` fills the blocks (empty function: no contact). Call
+  /// before prepare(), which takes the blocks at x; refreshContact(x) retakes them at a new
+  /// iterate when that needs no refactorisation (not with traceInFactor).
+  void setContact(ContactSource source, const ContactOptions& options);
+  /// False if the refactorisation failed (not SPD).
+  bool refreshContact(const VectorX& x);
+  std::size_t contactVertices() const { return contact_.size(); }
   /// L over all vertices (built by prepare).
   const Matrix& laplacian() const { return laplacian_; }
   int factorisations() const { return factorisations_; }
 
  private:
   void buildLaplacian(Model& model);
+  /// The contact blocks at x, and the free-vertex diagonal they add to the factor.
+  void takeContact(const VectorX& x);
+  bool factorise(std::string* error);
+  /// Y = (B0 x I3 + D) Z on the free vertices.
+  void applySystem(const ScalarCholesky::Block& Z, ScalarCholesky::Block& Y) const;
+  void conjugateGradients();  ///< solution_ from rhs_ (the contact case of applyInverse)
 
   Matrix laplacian_, system_;
   bool haveLaplacian_ = false;
@@ -59,9 +101,13 @@ class InitialHessian {
   std::vector<char> pinnedVertices_, factorisedFor_;
   double a_ = 0.0, b_ = 0.0;
   int factorisations_ = 0;
-  std::vector<Index> freeVertices_;
+  std::vector<Index> freeVertices_, freeIndex_;
   ScalarCholesky factor_;
-  ScalarCholesky::Block rhs_, solution_;
+  ScalarCholesky::Block rhs_, solution_, r_, s_, p_, ap_;
+  ContactSource source_;
+  ContactOptions options_;
+  std::vector<ContactBlock> contact_;
+  VectorX diagonal_, factorisedDiagonal_;  // per free vertex: trace(D_v) / 3 (traceInFactor)
 };
 
 }  // namespace fem_cloth

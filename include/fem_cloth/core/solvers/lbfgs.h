@@ -72,6 +72,7 @@ void LbfgsHistory::apply(const VectorX& q, ApplyH0&& applyH0, VectorX& out) {
 struct QuasiNewtonSettings {
   int memory = 8;           ///< curvature pairs kept
   int maxIterations = 100;  ///< per substep, before the caller falls back to Newton
+  InitialHessian::ContactOptions contact;  ///< how the contact's blocks enter H0
 };
 
 class QuasiNewtonSolver {
