@@ -225,7 +225,7 @@ TEST(FemClothSim, BadScenesAndOptionsExit2WithOneLine) {
   // Issue 30: a cloth 1.6 mm above the table (gripper_pinch.yaml: top at z = 0.75, cloth at
   // 0.7516) is within contact.distance (2 mm) for the explicit steppers' projection: --check
   // refuses it, naming the obstacle, a vertex, the gap and the integrators that handle it.
-  for (const std::string& integrator : {"symplectic_euler", "xpbd"}) {
+  for (const std::string integrator : {"symplectic_euler", "xpbd"}) {
     expectUsageError({"--scene", kConfigDir + "/gripper_pinch.yaml", "--integrator", integrator, "--check"},
                      {"obstacles[0] ('table')", "vertex 0 starts 0.0016", "within contact.distance (0.002 m)",
                       integrator, "backward_euler, bdf2"});
