@@ -589,6 +589,7 @@ Status addContact(const Scene& scene, const Model& model, const VectorX& x,
   switch ((*findIntegrator(scene.integrator))->supports.contact) {
     case ContactMethod::Barriers: {
       auto barriers = std::make_unique<ContactModel>(model, obstacles, scene.contact, scene.gravity.norm());
+      FEM_CLOTH_CHECK(barriers->checkSurfaceAtStart(x, pinned));
       if (scene.contact.selfCollision) FEM_CLOTH_CHECK(checkSelfContactAtStart(scene, *barriers, model.mesh(), x));
       simulator.setContact(obstacles, std::move(barriers));
       break;

@@ -483,7 +483,7 @@ TEST(Commands, TwoFramesNeverShareAWrenchTopic) {
 // it is placed there.
 TEST(Obstacles, OneNotPlacedYetNamesItsFrameAndTheTime) {
   const std::string scene = std::string(kScene) +
-                            "obstacles:\n  - {name: ball, type: sphere, center: [0.0, 0.0, 0.0], radius: 0.05, frame: hand}\n";
+                            "obstacles:\n  - {name: ball, type: sphere, center: [0.0, 0.0, 0.5], radius: 0.05, frame: hand}\n";
   tf2::BufferCore tf(ros::Duration(100.0));
   SimulationDriver driver(std::move(buildSimulation(*parseScene(YAML::Load(scene))).value()), defaultSettings(), &tf);
   ASSERT_TRUE(driver.step().ok);

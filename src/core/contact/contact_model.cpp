@@ -3,11 +3,13 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 
 #include "fem_cloth/core/contact/barrier.h"
 #include "fem_cloth/core/contact/broad_phase.h"
 #include "fem_cloth/core/contact/ccd.h"
+#include "fem_cloth/core/contact/edge_distance.h"
 #include "fem_cloth/core/contact/primitive_distance.h"
 
 namespace fem_cloth {
@@ -35,6 +37,10 @@ Eigen::Matrix<double, 3, 2> tangentBasis(const Eigen::Vector3d& n) {
 
 Eigen::Vector3d vertex(const VectorX& x, Index i) { return x.segment<3>(3 * i); }
 
+// The surface samples' lattice is fine enough for triangles stretched this much beyond their
+// rest shape (sampleSurface).
+constexpr double kStretchAllowance = 1.5;
+
 }  // namespace
 
 ContactModel::ContactModel(const Model& model, std::shared_ptr<ObstacleSet> obstacles,
@@ -57,7 +63,108 @@ ContactModel::ContactModel(const Model& model, std::shared_ptr<ObstacleSet> obst
     meanEdge += std::sqrt(l2);
   }
   meanEdge /= std::max<std::size_t>(edges_.size(), 1);
+  sampleSurface(model);
   cellSize_ = std::max(meanEdge, 2.0 * dHat);
+}
+
+void ContactModel::sampleSurface(const Model& model) {
+  // The lattice that keeps whole triangles out of the thinnest round obstacle, with the obstacle
+  // grown by at most a quarter of dHat, for triangles stretched up to 50 % beyond their rest
+  // shape (surface_samples.h); at most kMaxDivisions (an obstacle thin against the triangles
+  // then grows by more). finishSubstep checks the promise exactly (surfaceCrossing).
+  constexpr int kMaxDivisions = 24;
+  const Mesh& mesh = *mesh_;
+  round_.assign(obstacles_->size(), 0);
+  double thinnest = kInf;
+  for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+    if (!obstacles_->hasEdgeDistance(k)) continue;
+    round_[k] = 1;
+    thinnest = std::min(thinnest, (*obstacles_)[k].shape.radius);
+  }
+  if (thinnest == kInf) return;
+  double rho = 0.0;
+  for (const Triangle& t : mesh.triangles) {
+    rho = std::max(rho, latticeRadius(vertex3(mesh, mesh.restPositions, t[0]), vertex3(mesh, mesh.restPositions, t[1]),
+                                      vertex3(mesh, mesh.restPositions, t[2])));
+  }
+  rho *= kStretchAllowance;
+  const double grow = 0.25 * settings_.distance;
+  const double rhoTarget = std::sqrt(grow * (2.0 * thinnest + grow));
+  divisions_ = std::clamp(static_cast<int>(std::ceil(rho / rhoTarget)), 1, kMaxDivisions);
+  for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+    if (round_[k]) obstacles_->setMargin(k, inflation((*obstacles_)[k].shape.radius, rho / divisions_));
+  }
+  samples_ = surfaceSamples(mesh, model.vertexMasses(), divisions_);
+  samplesOfVertex_.assign(static_cast<std::size_t>(mesh.numVertices()), {});
+  for (std::size_t j = 0; j < samples_.size(); ++j) {
+    for (int slot = 0; slot < samples_[j].count; ++slot) {
+      samplesOfVertex_[static_cast<std::size_t>(samples_[j].vertices[static_cast<std::size_t>(slot)])].emplace_back(
+          static_cast<int>(j), slot);
+    }
+  }
+}
+
+std::string ContactModel::surfaceCrossing(const VectorX& x) const {
+  for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+    const std::string crossing = surfaceCrossing(x, k);
+    if (crossing.empty()) continue;
+    char text[240];
+    std::snprintf(text, sizeof text,
+                  " (moving at %.3g m/s), although its surface samples (%d divisions) keep outside it grown by "
+                  "%.3g mm: the triangle is stretched beyond the %.0f %% the lattice allows for",
+                  obstacleSpeed(k), divisions_, 1e3 * obstacles_->margin(k), 100.0 * (kStretchAllowance - 1.0));
+    return crossing + text;
+  }
+  return {};
+}
+
+std::string ContactModel::surfaceCrossing(const VectorX& x, std::size_t k) const {
+  if (!round_[k]) return {};
+  {
+    const Eigen::Isometry3d& inverse = obstacles_->inverseEnd(k);
+    const Shape& shape = (*obstacles_)[k].shape;
+    for (Index t = 0; t < mesh_->numTriangles(); ++t) {
+      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+      if (!(isFree(tri[0]) || isFree(tri[1]) || isFree(tri[2]))) continue;
+      const Eigen::Vector3d a = inverse * vertex(x, tri[0]), b = inverse * vertex(x, tri[1]), c = inverse * vertex(x, tri[2]);
+      const double d = *triangleShapeDistance(shape, a, b, c);
+      if (d > 0.0) continue;
+      char text[120];
+      std::snprintf(text, sizeof text, ") reaches %.3g mm into obstacle '%s'", -1e3 * d, (*obstacles_)[k].name.c_str());
+      return "triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " + std::to_string(tri[1]) +
+             ", " + std::to_string(tri[2]) + text;
+    }
+  }
+  return {};
+}
+
+Status ContactModel::checkSurfaceAtStart(const VectorX& x, const std::vector<Index>& pinned) {
+  std::vector<char> fixed(static_cast<std::size_t>(x.size()), 0);
+  for (Index v : pinned) fixed[static_cast<std::size_t>(3 * v)] = 1;
+  pinned_ = &fixed;
+  obstacles_->beginSubstep(0.0, 0.0);
+  Status out = Status::success();
+  for (std::size_t k = 0; k < obstacles_->size() && out.ok(); ++k) {
+    if (!round_[k] || !(*obstacles_)[k].frame.empty()) continue;
+    const std::string name = "obstacles[" + std::to_string(k) + "] ('" + (*obstacles_)[k].name + "')";
+    const std::string crossing = surfaceCrossing(x, k);
+    if (!crossing.empty()) {
+      out = Error{name + ": " + crossing + " at the start; move the obstacle or the cloth"};
+      break;
+    }
+    for (const SurfaceSample& sample : samples_) {
+      if (!sampleTakesContact(sample) || obstacles_->distance(k, samplePoint(x, sample), false).distance > 0.0) continue;
+      std::string where = std::to_string(sample.vertices[0]);
+      for (int j = 1; j < sample.count; ++j) where += ", " + std::to_string(sample.vertices[static_cast<std::size_t>(j)]);
+      out = Error{name + ": the cloth between vertices " + where + " starts within " +
+                  std::to_string(1e3 * obstacles_->margin(k)) +
+                  " mm of it, the margin by which the barriers grow round obstacles so that no point of a "
+                  "triangle enters them (docs/contact.md); move the obstacle or the cloth farther apart"};
+      break;
+    }
+  }
+  pinned_ = nullptr;
+  return out;
 }
 
 double ContactModel::minimumSelfDistance(const VectorX& x) {
@@ -128,6 +235,7 @@ double ContactModel::edgeMollifierThreshold(Index ea, Index eb) const {
 void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gamma, double h,
                                 const std::vector<char>& pinned, double f0, double f1) {
   pinned_ = &pinned;
+  substepLength_ = h;
   obstacles_->beginSubstep(f0, f1);
   friction_.clear();
   frictionEps_ = settings_.frictionVelocity / gamma;
@@ -194,9 +302,41 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   vertexTablesFresh_ = false;
 }
 
-std::size_t ContactModel::carryingObstacle(const Eigen::Vector3d& p) {
+bool ContactModel::obstacleReaches(std::size_t k, const Eigen::Vector3d& p) {
   ObstacleSet& obstacles = *obstacles_;
-  const double dHat = settings_.distance;
+  const Eigen::Isometry3d &start = obstacles.poseStart(k), &end = obstacles.poseEnd(k);
+  if (start.matrix() == end.matrix()) return false;
+  // In the obstacle's frame a point moves along inverse(pose(t)) p: its speed is at most
+  // |shift| + angle |p - centre| (centre anywhere on the way).
+  const Eigen::Vector3d shift = end.translation() - start.translation();
+  const double angle = Eigen::AngleAxisd(start.linear().transpose() * end.linear()).angle();
+  const double lp = shift.norm() + angle * ((p - start.translation()).norm() + shift.norm());
+  auto distanceAt = [&](double t) {
+    return obstacles.shapeDistance(k, interpolatePose(start, end, t).inverse() * p).distance;
+  };
+  return ccd::comesWithin(distanceAt, distanceAt(0.0), lp, settings_.distance);
+}
+
+double ContactModel::obstacleSpeed(std::size_t k) const {
+  const double shift = (obstacles_->poseEnd(k).translation() - obstacles_->poseStart(k).translation()).norm();
+  return substepLength_ > 0.0 ? shift / substepLength_ : 0.0;
+}
+
+std::string ContactModel::movingObstaclesText() const {
+  std::string out;
+  for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+    const double shift = (obstacles_->poseEnd(k).translation() - obstacles_->poseStart(k).translation()).norm();
+    if (!(shift > 0.0)) continue;
+    char text[160];
+    std::snprintf(text, sizeof text, "' moves at %.3g m/s (%.3g mm in the substep, %.3g contact.distance)",
+                  obstacleSpeed(k), 1e3 * shift, shift / settings_.distance);
+    out += (out.empty() ? "obstacle '" : "; obstacle '") + (*obstacles_)[k].name + text;
+  }
+  return out;
+}
+
+std::size_t ContactModel::carryingObstacle(const Eigen::Vector3d& p, const char* reached) {
+  ObstacleSet& obstacles = *obstacles_;
   // The smallest distance to any obstacle at the end of the substep if p moves to q.
   auto clearance = [&](const Eigen::Vector3d& q) {
     double smallest = kInf;
@@ -205,24 +345,13 @@ std::size_t ContactModel::carryingObstacle(const Eigen::Vector3d& p) {
   };
   std::size_t best = obstacles.size();
   double bestClearance = -kInf;
-  bool reached = false;
+  bool any = false, mayStay = true;
+  for (std::size_t k = 0; k < obstacles.size(); ++k) mayStay = mayStay && reached[k] != 2;
   for (std::size_t k = 0; k < obstacles.size(); ++k) {
-    const Eigen::Isometry3d &start = obstacles.poseStart(k), &end = obstacles.poseEnd(k);
-    if (start.matrix() == end.matrix()) continue;
-    // In the obstacle's frame the vertex moves along inverse(pose(t)) p: its speed is at most
-    // |shift| + angle |p - centre| (centre anywhere on the way).
-    auto distanceAt = [&](double t) {
-      return obstacles.shapeDistance(k, interpolatePose(start, end, t).inverse() * p).distance;
-    };
-    const Eigen::Vector3d shift = end.translation() - start.translation();
-    const double angle = Eigen::AngleAxisd(start.linear().transpose() * end.linear()).angle();
-    const double lp = shift.norm() + angle * ((p - start.translation()).norm() + shift.norm());
-    if (!ccd::comesWithin(distanceAt, distanceAt(0.0), lp, dHat)) continue;
-    if (!reached) {
-      reached = true;
-      bestClearance = clearance(p);  // staying where it is
-    }
-    const double c = clearance(end * (obstacles.inverseStart(k) * p));
+    if (reached[k] == 0) continue;
+    if (!any && mayStay) bestClearance = clearance(p);  // staying where it is
+    any = true;
+    const double c = clearance(obstacles.poseEnd(k) * (obstacles.inverseStart(k) * p));
     if (c > bestClearance) {
       best = k;
       bestClearance = c;
@@ -239,10 +368,30 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
   // carried by one, not by both in turn (which put it the fingers' displacement too close to
   // the second and made Newton climb back out of its barrier: 3-5 times the iterations of a
   // pinch-lift substep).
+  // A vertex is a candidate for each obstacle that comes within dHat of it (1) or of a surface
+  // sample of one of its triangles (2: a triangle that a round obstacle would cross between its
+  // vertices moves with it; then the vertex may not stay, however far staying leaves the vertex).
   carried_.assign(static_cast<std::size_t>(n), 0);
+  const std::size_t obstacleCount = obstacles_->size();
+  reached_.assign(static_cast<std::size_t>(n) * obstacleCount, 0);
   for (Index i = 0; i < n; ++i) {
     if (!isFree(i)) continue;
-    const std::size_t k = carryingObstacle(vertex(x0, i));
+    for (std::size_t k = 0; k < obstacleCount; ++k) {
+      if (obstacleReaches(k, vertex(x0, i))) reached_[static_cast<std::size_t>(i) * obstacleCount + k] = 1;
+    }
+  }
+  for (const SurfaceSample& sample : samples_) {
+    if (!sampleTakesContact(sample)) continue;
+    for (std::size_t k = 0; k < obstacleCount; ++k) {
+      if (!round_[k] || !obstacleReaches(k, samplePoint(x0, sample))) continue;
+      for (int j = 0; j < sample.count; ++j) {
+        reached_[static_cast<std::size_t>(sample.vertices[static_cast<std::size_t>(j)]) * obstacleCount + k] = 2;
+      }
+    }
+  }
+  for (Index i = 0; i < n; ++i) {
+    if (!isFree(i)) continue;
+    const std::size_t k = carryingObstacle(vertex(x0, i), &reached_[static_cast<std::size_t>(i) * obstacleCount]);
     if (k < obstacles_->size()) {
       x.segment<3>(3 * i) = obstacles_->poseEnd(k) * (obstacles_->inverseStart(k) * vertex(x0, i));
       carried_[static_cast<std::size_t>(i)] = 1;
@@ -254,8 +403,25 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
       const double d = obstacles_->distance(k, vertex(x, i), true).distance;
       if (!(d > 0.0)) {
         return Error{"vertex " + std::to_string(i) + " would be inside obstacle '" +
-                     (*obstacles_)[k].name + "' (" + std::to_string(d) +
-                     " m): pinched between obstacles, or pushed in by a pin"};
+                     (*obstacles_)[k].name + "' (" + std::to_string(d) + " m; the obstacle moves at " +
+                     std::to_string(obstacleSpeed(k)) +
+                     " m/s): pinched between obstacles, pushed in by a pin, or the obstacle moves "
+                     "farther in a substep than the cloth can follow (more substeps may help)"};
+      }
+    }
+  }
+  for (const SurfaceSample& sample : samples_) {
+    if (!sampleTakesContact(sample)) continue;
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      if (!round_[k]) continue;
+      const double d = obstacles_->distance(k, samplePoint(x, sample), true).distance;
+      if (!(d > 0.0)) {
+        std::string where = std::to_string(sample.vertices[0]);
+        for (int j = 1; j < sample.count; ++j) where += ", " + std::to_string(sample.vertices[static_cast<std::size_t>(j)]);
+        return Error{"a point between vertices " + where + " would be inside obstacle '" + (*obstacles_)[k].name +
+                     "' (" + std::to_string(d) + " m; the obstacle moves at " + std::to_string(obstacleSpeed(k)) +
+                     " m/s): pinched between obstacles, pushed in by a pin, or the obstacle moves "
+                     "farther in a substep than the cloth can follow (more substeps may help)"};
       }
     }
   }
@@ -298,23 +464,35 @@ double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool wi
     if (perDof != nullptr) perDof->segment<3>(3 * v) = perDof->segment<3>(3 * v).cwiseMin(t);
   };
   double t = 1.0;
-  const Index n = withObstacles ? mesh_->numVertices() : 0;
-  for (Index i = 0; i < n; ++i) {
-    if (!isFree(i)) continue;
-    const Eigen::Vector3d p = vertex(x, i), step = vertex(dx, i);
+  // The largest t <= cap at which the point p moving by `step` stays clear of the obstacles
+  // (only the round ones if roundOnly).
+  auto pointBound = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& step, bool roundOnly) {
     const double length = step.norm();
-    if (length == 0.0) continue;
-    const double cap = perDof != nullptr ? 1.0 : t;
-    double ti = cap;
+    double ti = perDof != nullptr ? 1.0 : t;
+    if (length == 0.0) return ti;
     for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      if (roundOnly && (!round_[k] || length * ti < (1.0 - ccd::kRescaling) * roundLowerBound(k, p))) continue;
       const double d0 = obstacles_->distance(k, p, true).distance;
-      // A vertex cannot lose more distance than it moves.
+      // A point cannot lose more distance than it moves.
       if (length * ti < (1.0 - ccd::kRescaling) * d0) continue;
       auto at = [&](double s) { return obstacles_->distance(k, p + s * step, true).distance; };
       ti = std::min(ti, ccd::additive(at, d0, length, ti));
     }
+    return ti;
+  };
+  const Index n = withObstacles ? mesh_->numVertices() : 0;
+  for (Index i = 0; i < n; ++i) {
+    if (!isFree(i)) continue;
+    const double ti = pointBound(vertex(x, i), vertex(dx, i), false);
     lower(i, ti);
     t = std::min(t, ti);
+  }
+  for (std::size_t j = 0; withObstacles && j < samples_.size(); ++j) {
+    const SurfaceSample& sample = samples_[j];
+    if (!sampleTakesContact(sample)) continue;
+    const double tj = pointBound(samplePoint(x, sample), samplePoint(dx, sample), true);
+    for (int v = 0; v < sample.count; ++v) lower(sample.vertices[static_cast<std::size_t>(v)], tj);
+    t = std::min(t, tj);
   }
   if (settings_.selfCollision) t = std::min(t, selfSegment(x, dx, t, perDof));
   return t;
@@ -407,6 +585,7 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
   // One running sum over barriers, then friction, in this order.
   if (part != Part::Friction) {
     if (!addObstacleBarriers(x, a)) return kInf;
+    if (!samples_.empty() && !addSampleBarriers(x, a)) return kInf;
     if (settings_.selfCollision && !(addPointTriangleBarriers(x, a) && addEdgeEdgeBarriers(x, a))) {
       return kInf;
     }
@@ -445,10 +624,51 @@ bool ContactModel::addObstacleBarriers(const VectorX& x, Assembly& a) {
   return true;
 }
 
+bool ContactModel::addSampleBarriers(const VectorX& x, Assembly& a) {
+  // Surface samples against the round obstacles (grown by their margins): kappa m_s b(d^2) as a
+  // vertex's, d the sample point's distance; its gradient splits over its vertices by the weights.
+  const double dHat = settings_.distance;
+  for (const SurfaceSample& s : samples_) {
+    if (!sampleTakesContact(s)) continue;
+    const Eigen::Vector3d p = samplePoint(x, s);
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      if (!round_[k] || roundLowerBound(k, p) >= dHat) continue;
+      const SignedDistance sd = obstacles_->distance(k, p, true);
+      a.note(sd.distance, dHat);
+      if (!(sd.distance > 0.0)) return false;
+      if (sd.distance >= dHat) continue;
+      const VertexBarrier b = massBarrier(kappa_ * s.mass, sd);
+      a.energy += b.energy;
+      if (a.gradient != nullptr) {
+        for (int i = 0; i < s.count; ++i) a.gradient->segment<3>(3 * s.vertices[static_cast<std::size_t>(i)]) += (a.scale * s.weights[i]) * b.gradient;
+      }
+      if (a.wrench != nullptr) {
+        (*a.wrench)[k].force += b.gradient;
+        (*a.wrench)[k].torque += sd.closest.cross(b.gradient);
+      }
+      if (a.stats != nullptr) a.stats->work -= b.gradient.dot(surfaceMotion(k, sd.closest));
+      if (a.hessian != nullptr) {
+        const Eigen::Matrix3d nn = (a.scale * b.weight * b.along) * (sd.normal * sd.normal.transpose());
+        for (int r = 0; r < s.count; ++r) {
+          for (int c = 0; c < s.count; ++c) {
+            addBlock(s.vertices[static_cast<std::size_t>(r)], s.vertices[static_cast<std::size_t>(c)],
+                     (s.weights[r] * s.weights[c]) * nn, a.hessian, a.outside);
+          }
+        }
+      }
+    }
+  }
+  return true;
+}
+
 ContactModel::VertexBarrier ContactModel::vertexBarrier(Index i, const SignedDistance& sd) const {
-  // kappa m b(d^2), d the signed distance (0 < d < dHat).
+  return massBarrier(kappa_ * mass_[i], sd);
+}
+
+ContactModel::VertexBarrier ContactModel::massBarrier(double w, const SignedDistance& sd) const {
+  // w b(d^2) with w = kappa m, d the signed distance (0 < d < dHat).
   VertexBarrier out;
-  const double d = sd.distance, s = d * d, w = kappa_ * mass_[i];
+  const double d = sd.distance, s = d * d;
   out.energy = w * barrier::value(s, sHat_);
   const double b1 = barrier::first(s, sHat_);
   out.gradient = w * b1 * 2.0 * d * sd.normal;
@@ -668,6 +888,21 @@ bool ContactModel::addVertexBarriers(const VectorX& x, Index v, VertexDerivative
     out.force -= b.gradient;
     out.hessian += (b.weight * b.along) * (sd.normal * sd.normal.transpose());
   }
+  for (std::size_t j = 0; !samples_.empty() && isFree(v) && j < samplesOfVertex_[static_cast<std::size_t>(v)].size(); ++j) {
+    const auto [index, slot] = samplesOfVertex_[static_cast<std::size_t>(v)][j];
+    const SurfaceSample& s = samples_[static_cast<std::size_t>(index)];
+    const Eigen::Vector3d p = samplePoint(x, s);
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      if (!round_[k] || roundLowerBound(k, p) >= dHat) continue;
+      const SignedDistance sd = obstacles_->distanceAt(k, p, true);
+      if (!(sd.distance > 0.0)) return false;
+      if (sd.distance >= dHat) continue;
+      const VertexBarrier b = massBarrier(kappa_ * s.mass, sd);
+      const double w = s.weights[slot];
+      out.force -= w * b.gradient;
+      out.hessian += (w * w * b.weight * b.along) * (sd.normal * sd.normal.transpose());
+    }
+  }
   if (settings_.selfCollision) {
     PairBarrier b;
     double distance = 0.0;
@@ -716,6 +951,7 @@ void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactSta
   stats.work += here.work;
   stats.dissipated += here.dissipated;
   stats.stored = here.stored;
+  if (stats.crossing.empty()) stats.crossing = surfaceCrossing(x);
   pinned_ = nullptr;
 }
 

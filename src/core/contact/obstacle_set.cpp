@@ -9,6 +9,7 @@ ObstacleSet::ObstacleSet(std::vector<Obstacle> obstacles) : obstacles_(std::move
   frameEnd_ = frameStart_;
   poseStart_ = poseEnd_ = inverseStart_ = inverseEnd_ = frameStart_;
   wrenches_.assign(obstacles_.size(), ObstacleWrench());
+  margin_.assign(obstacles_.size(), 0.0);
   beginSubstep(0.0, 0.0);
 }
 
@@ -55,9 +56,22 @@ SignedDistance ObstacleSet::distanceAt(std::size_t k, const Eigen::Vector3d& p, 
   const Eigen::Isometry3d& pose = atEnd ? poseEnd_[k] : poseStart_[k];
   const Eigen::Isometry3d& inverse = atEnd ? inverseEnd_[k] : inverseStart_[k];
   SignedDistance sd = signedDistance(obstacles_[k].shape, inverse * p);
+  grow(sd, margin_[k]);
   sd.normal = pose.linear() * sd.normal;
   sd.closest = pose * sd.closest;
   return sd;
+}
+
+std::optional<EdgeShapeDistance> ObstacleSet::edgeDistanceAt(std::size_t k, const Eigen::Vector3d& a,
+                                                             const Eigen::Vector3d& b, bool atEnd) const {
+  const Eigen::Isometry3d& pose = atEnd ? poseEnd_[k] : poseStart_[k];
+  const Eigen::Isometry3d& inverse = atEnd ? inverseEnd_[k] : inverseStart_[k];
+  std::optional<EdgeShapeDistance> ed = edgeShapeDistance(obstacles_[k].shape, inverse * a, inverse * b);
+  if (ed) {
+    ed->surface.normal = pose.linear() * ed->surface.normal;
+    ed->surface.closest = pose * ed->surface.closest;
+  }
+  return ed;
 }
 
 }  // namespace fem_cloth

@@ -284,6 +284,12 @@ bool ImplicitIntegrator::solve(const StepInput& input, const State& state, doubl
     report.unbalanced.merge(left);
     report.error += " (" + residualText(left) + ")";
   }
+  // An obstacle that moves farther in a substep than the cloth can follow leaves Newton no
+  // balanced state (issue 30: a ball at 100 m/s): say which obstacles moved, and how fast.
+  if (contact_ != nullptr) {
+    const std::string moving = contact_->movingObstaclesText();
+    if (!moving.empty()) report.error += " (" + moving + ")";
+  }
   return false;
 }
 
@@ -338,6 +344,7 @@ bool ImplicitIntegrator::substep(const StepInput& input, State& state, double h,
     ContactStats stats;
     contact_->finishSubstep(iterate_.x, state.x, stats);
     recordContact(stats, report);
+    if (!stats.crossing.empty()) return false;  // a triangle inside a round obstacle
   }
   commit(state, h, pinForce, report);
   return true;

@@ -3,8 +3,10 @@
 // Implicit steppers (backward Euler, BDF2): Incremental Potential Contact (Li et al., "Incremental
 // Potential Contact", SIGGRAPH 2020). The incremental potential gains
 //     c^2 (kappa B(x) + D(x))
-// with B a sum of log barriers (barrier.h) over every vertex-obstacle pair and, with self-collision,
-// every point-triangle and edge-edge pair closer than the contact distance dHat, and D the lagged
+// with B a sum of log barriers (barrier.h) over every vertex-obstacle pair, every pair of a
+// sphere or capsule and a lattice point of a triangle (surface_samples.h: so that no point of the
+// surface enters a round obstacle between vertices) and, with self-collision, every
+// point-triangle and edge-edge pair closer than the contact distance dHat, and D the lagged
 // friction potential (section 5). Each barrier is weighted by the mass it pushes (the vertex's, or
 // the mean of the pair's four vertices), so one stiffness kappa puts every vertex resting under
 // the same acceleration at the same distance. The Newton line search never passes through
@@ -29,6 +31,7 @@
 #include <vector>
 
 #include "fem_cloth/core/contact/obstacle_set.h"
+#include "fem_cloth/core/contact/surface_samples.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/model.h"
 
@@ -108,6 +111,17 @@ class ContactModel {
   /// the start of a run. +inf if a distance is zero or negative.
   double storedEnergy(const VectorX& x, const std::vector<char>& pinned);
 
+  /// At the start of a run (the obstacles at time 0, those following a tf frame left out, since
+  /// only the node places them): every triangle with a free vertex (not in `pinned`) outside the
+  /// spheres and capsules, and its lattice points outside them grown by their margins (so that
+  /// the barrier is finite in the first step); else an error naming the obstacle and the triangle.
+  Status checkSurfaceAtStart(const VectorX& x, const std::vector<Index>& pinned);
+
+  /// The obstacles that move in the current substep, for a failed step's message: "obstacle
+  /// 'ball' moves at 100 m/s (1000 mm in the substep, 500 contact.distance)", joined by "; ";
+  /// empty if none moves.
+  std::string movingObstaclesText() const;
+
   /// Distance evaluations so far, the obstacles' included (never reset: callers take differences).
   std::uint64_t checks() const { return checks_ + obstacles_->checks(); }
 
@@ -140,6 +154,8 @@ class ContactModel {
     Eigen::Matrix3d hessian = Eigen::Matrix3d::Zero();   // per unit weight product
   };
   VertexBarrier vertexBarrier(Index i, const SignedDistance& sd) const;
+  /// Both: w b(d^2) for the weight w = kappa m (1/s^2).
+  VertexBarrier massBarrier(double w, const SignedDistance& sd) const;
   /// False when the distance is zero or negative; `distance` gets it either way.
   bool pointTriangleBarrier(const VectorX& x, int p, int t, bool wantGradient, bool wantHessian,
                             PairBarrier& out, double& distance) const;
@@ -148,7 +164,41 @@ class ContactModel {
   /// The moving obstacle that carries a vertex at p (at the start of the substep) in the starting
   /// point: of those that come within dHat of it over the substep, the one whose motion leaves it
   /// farthest from every obstacle at the end; size() if none does, or if staying is farther.
-  std::size_t carryingObstacle(const Eigen::Vector3d& p);
+  /// Only the obstacles marked in `reached` (size() entries: 1 the vertex, 2 a surface sample of
+  /// one of its triangles comes within dHat of it over the substep) are candidates; staying is one
+  /// only without a 2.
+  std::size_t carryingObstacle(const Eigen::Vector3d& p, const char* reached);
+  /// Whether moving obstacle k comes within dHat of the point p over the substep, the cloth held
+  /// still (conservative advancement in its frame).
+  bool obstacleReaches(std::size_t k, const Eigen::Vector3d& p);
+  /// The obstacle's speed over the substep (m/s; its translation), for messages.
+  double obstacleSpeed(std::size_t k) const;
+  /// A surface sample takes obstacle contact when one of its vertices is free.
+  bool sampleTakesContact(const SurfaceSample& s) const {
+    for (int i = 0; i < s.count; ++i) {
+      if (isFree(s.vertices[static_cast<std::size_t>(i)])) return true;
+    }
+    return false;
+  }
+  static Eigen::Vector3d samplePoint(const VectorX& x, const SurfaceSample& s) {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    for (int i = 0; i < s.count; ++i) p += s.weights[i] * x.segment<3>(3 * s.vertices[static_cast<std::size_t>(i)]);
+    return p;
+  }
+  /// A cheap lower bound of the distance of p to round obstacle k (grown) where it ends the
+  /// substep: from the sphere around it (its shape frame's origin is its centre), so that far
+  /// surface samples cost no distance evaluation.
+  double roundLowerBound(std::size_t k, const Eigen::Vector3d& p) const {
+    const Shape& shape = (*obstacles_)[k].shape;
+    return (p - obstacles_->poseEnd(k).translation()).norm() - (shape.radius + shape.halfLength + obstacles_->margin(k));
+  }
+  /// Samples the surface for the round obstacles and grows them (surface_samples.h).
+  void sampleSurface(const Model& model);
+  /// The first triangle that reaches into a round obstacle at x (the obstacles where they end
+  /// the substep), as a message naming both; empty if none does.
+  std::string surfaceCrossing(const VectorX& x) const;
+  /// The same for obstacle k alone.
+  std::string surfaceCrossing(const VectorX& x, std::size_t k) const;
   FrictionShare frictionShare(const Friction& f, const VectorX& x, bool wantHessian) const;
   /// The displacement over the substep of obstacle k's surface point that is at p at its end.
   Eigen::Vector3d surfaceMotion(std::size_t k, const Eigen::Vector3d& p) const;
@@ -181,6 +231,7 @@ class ContactModel {
   };
   // The parts of evaluateAll, in its order; false when a distance is zero or negative.
   bool addObstacleBarriers(const VectorX& x, Assembly& a);
+  bool addSampleBarriers(const VectorX& x, Assembly& a);
   bool addPointTriangleBarriers(const VectorX& x, Assembly& a);
   bool addEdgeEdgeBarriers(const VectorX& x, Assembly& a);
   void addFriction(const VectorX& x, Assembly& a) const;
@@ -206,6 +257,15 @@ class ContactModel {
   double cellSize_ = 0.0;
   std::vector<std::array<Index, 2>> edges_;
   std::vector<double> restEdgeSquared_;
+  // Round obstacles (spheres, capsules): the lattice points of the triangles that their barriers
+  // also hold out (surface_samples.h), with k divisions, and each vertex's samples (sample, slot)
+  // for vertexDerivatives. Empty without round obstacles.
+  int divisions_ = 1;
+  std::vector<SurfaceSample> samples_;
+  std::vector<std::vector<std::pair<int, int>>> samplesOfVertex_;
+  std::vector<char> round_;  // per obstacle: a sphere or capsule
+  std::vector<char> reached_;  // startingPoint: vertex x obstacle, reached over the substep
+  double substepLength_ = 0.0;  // s
 
   // The current substep.
   const std::vector<char>* pinned_ = nullptr;

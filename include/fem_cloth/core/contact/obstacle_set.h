@@ -12,9 +12,11 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <utility>
 #include <vector>
 
+#include "fem_cloth/core/contact/edge_distance.h"
 #include "fem_cloth/core/contact/obstacle.h"
 
 namespace fem_cloth {
@@ -51,6 +53,9 @@ struct ContactStats {
   /// J, energy stored in the barriers at the end of the substep (implicit steppers; 0 otherwise).
   double stored = 0.0;
   double minDistance = std::numeric_limits<double>::infinity();  ///< m, over contacts considered
+  /// Not empty: the substep left the cloth through an obstacle (the projection's edge check):
+  /// the step fails with this message.
+  std::string crossing;
 };
 
 class ObstacleSet {
@@ -83,19 +88,39 @@ class ObstacleSet {
   const Eigen::Isometry3d& poseEnd(std::size_t k) const { return poseEnd_[k]; }
   const Eigen::Isometry3d& inverseStart(std::size_t k) const { return inverseStart_[k]; }
   const Eigen::Isometry3d& inverseEnd(std::size_t k) const { return inverseEnd_[k]; }
-  /// Signed distance of world point p to obstacle k at the substep's start or end, with the
-  /// normal and the closest point in the world; counted in checks().
+  /// Grows obstacle k by `margin` (m) for distance() and shapeDistance(): the barrier contact
+  /// model grows round obstacles so that its surface samples keep whole triangles out
+  /// (surface_samples.h). 0 by default; edgeDistance() always measures to the shape itself.
+  void setMargin(std::size_t k, double margin) { margin_[k] = margin; }
+  double margin(std::size_t k) const { return margin_[k]; }
+  /// Signed distance of world point p to obstacle k (grown by its margin) at the substep's start
+  /// or end, with the normal and the closest point in the world; counted in checks().
   SignedDistance distance(std::size_t k, const Eigen::Vector3d& p, bool atEnd) {
     ++checks_;
     return distanceAt(k, p, atEnd);
   }
   /// The same, not counted (const callers: per-vertex access).
   SignedDistance distanceAt(std::size_t k, const Eigen::Vector3d& p, bool atEnd) const;
+  /// Signed distance of the world segment (a, b) to obstacle k at the substep's start or end
+  /// (edge_distance.h: nothing for shapes without one), normal and closest point in the world;
+  /// counted in checks().
+  std::optional<EdgeShapeDistance> edgeDistance(std::size_t k, const Eigen::Vector3d& a,
+                                                const Eigen::Vector3d& b, bool atEnd) {
+    ++checks_;
+    return edgeDistanceAt(k, a, b, atEnd);
+  }
+  /// The same, not counted.
+  std::optional<EdgeShapeDistance> edgeDistanceAt(std::size_t k, const Eigen::Vector3d& a,
+                                                  const Eigen::Vector3d& b, bool atEnd) const;
+  /// Obstacle k has an edge distance (edge_distance.h).
+  bool hasEdgeDistance(std::size_t k) const { return fem_cloth::hasEdgeDistance(obstacles_[k].shape.type); }
   /// Signed distance of a point given in obstacle k's shape frame (normal and closest point in
   /// that frame too); counted.
   SignedDistance shapeDistance(std::size_t k, const Eigen::Vector3d& local) {
     ++checks_;
-    return signedDistance(obstacles_[k].shape, local);
+    SignedDistance sd = signedDistance(obstacles_[k].shape, local);
+    grow(sd, margin_[k]);
+    return sd;
   }
 
   // --- What the cloth does to them ---------------------------------------------------------------
@@ -113,7 +138,12 @@ class ObstacleSet {
   std::vector<Eigen::Isometry3d> frameStart_, frameEnd_;
   std::vector<Eigen::Isometry3d> poseStart_, poseEnd_, inverseStart_, inverseEnd_;
   std::vector<ObstacleWrench> wrenches_;
+  std::vector<double> margin_;
   std::uint64_t checks_ = 0;
+  static void grow(SignedDistance& sd, double margin) {
+    sd.distance -= margin;
+    sd.closest += margin * sd.normal;
+  }
 };
 
 }  // namespace fem_cloth

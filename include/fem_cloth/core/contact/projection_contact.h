@@ -10,6 +10,7 @@
 // over the scene's ObstacleSet, only for them.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -40,7 +41,10 @@ class ProjectionContact {
   /// massScale m correction / h^2 on each vertex (massScale = 1 + h alpha with implicit mass
   /// damping alpha, which scales the inertia of the update), the obstacles' work (that force
   /// times the motion of the obstacle's surface point under the vertex: ContactStats::work), the
-  /// obstacles' wrenches and the contact count.
+  /// obstacles' wrenches and the contact count. Last, the edge check: an edge of the cloth more
+  /// than dHat and half the radius inside a sphere or capsule (edge_distance.h; the projection
+  /// keeps vertices out, not the edges between them) sets stats.crossing, naming the edge, the
+  /// obstacle and its speed.
   void finishSubstep(VectorX& x, const VectorX& xStart, double h, double massScale, ContactStats& stats);
   /// The displacement (per DOF, m) projection and friction gave x in this substep.
   const VectorX& correction() const { return correction_; }
@@ -50,6 +54,7 @@ class ProjectionContact {
 
  private:
   void applyFriction(VectorX& x, const VectorX& xStart);
+  void checkEdges(const VectorX& x, double h, ContactStats& stats);
 
   std::shared_ptr<ObstacleSet> obstacles_;
   VectorX mass_;  // per vertex (kg)
@@ -57,6 +62,7 @@ class ProjectionContact {
   std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none
   VectorX normalPush_;            // per vertex: distance projected along normals this substep (m)
   VectorX correction_;            // per DOF: displacement by projection and friction (m)
+  std::vector<std::array<Index, 2>> edges_;  // the mesh's edges, if an obstacle has an edge distance
 };
 
 }  // namespace fem_cloth
