@@ -270,6 +270,12 @@ Status readIntegrator(const YAML::Node& node, Scene& s) {
   FEM_CLOTH_CHECK(r.integer("substeps", s.substeps));
   FEM_CLOTH_CHECK(r.integer("max_retries", s.maxRetries));
   for (const IntegratorEntry& entry : integratorRegistry()) FEM_CLOTH_CHECK(entry.read(r, s));
+  if (node.IsDefined() && node.IsMap()) {
+    for (const auto& kv : node) {
+      const std::string note = unusedIntegratorKeyNote(s.integrator, kv.first.Scalar());
+      if (!note.empty()) s.warnings.push_back(note);
+    }
+  }
   return Status::success();
 }
 
@@ -705,6 +711,38 @@ Expected<YAML::Node> parseSceneText(const std::string& text, const std::string& 
   return doc;
 }
 
+Status applySceneOverrides(YAML::Node& document, const std::vector<std::string>& overrides) {
+  for (const std::string& o : overrides) FEM_CLOTH_CHECK(applySceneOverride(document, o));
+  std::vector<std::string> given;
+  for (const std::string& o : overrides) {
+    const std::string path = o.substr(0, o.find('='));
+    if (path.rfind("integrator.", 0) == 0) {
+      given.push_back(path.substr(std::string("integrator.").size()));
+    } else if (path == "integrator") {  // integrator={name: bdf2, ...}: its keys
+      const YAML::Node value = YAML::Load(o.substr(o.find('=') + 1));
+      if (value.IsMap()) {
+        for (const auto& kv : value) given.push_back(kv.first.Scalar());
+      }
+    }
+  }
+  return checkGivenIntegratorKeys(document, given, "--set integrator.");
+}
+
+Status checkGivenIntegratorKeys(const YAML::Node& document, const std::vector<std::string>& keys,
+                                const std::string& source) {
+  if (!document.IsMap()) return Status::success();
+  std::string name = Scene{}.integrator;
+  // Through const nodes: a missing key is then an undefined node, not an invalid one that throws.
+  const YAML::Node& doc = document;
+  const YAML::Node integrator = doc["integrator"];
+  if (integrator.IsDefined() && integrator.IsMap()) {
+    const YAML::Node chosen = integrator["name"];
+    if (chosen.IsDefined() && chosen.IsScalar()) name = chosen.Scalar();
+  }
+  for (const std::string& key : keys) FEM_CLOTH_CHECK(checkIntegratorUsesKey(name, key, source + key));
+  return Status::success();
+}
+
 Expected<YAML::Node> loadSceneDocument(const std::string& path,
                                        const std::vector<std::string>& overrides) {
   Expected<std::string> text = readTextFile(path, kMaxSceneFileBytes, "scene file");
@@ -712,9 +750,7 @@ Expected<YAML::Node> loadSceneDocument(const std::string& path,
   Expected<YAML::Node> parsed = parseSceneText(*text, path);
   if (!parsed) return Error{parsed.error()};
   YAML::Node doc = *parsed;
-  for (const std::string& o : overrides) {
-    if (Status s = applySceneOverride(doc, o); !s) return Error{s.error()};
-  }
+  FEM_CLOTH_CHECK(applySceneOverrides(doc, overrides));
   return doc;
 }
 

@@ -28,9 +28,7 @@ Expected<YAML::Node> sceneDocument(const RecordedRun* run, const BagRunOptions& 
   if (run == nullptr) return Error{"no scene: give --scene"};
   Expected<YAML::Node> doc = storedScene(*run, options.node);
   if (!doc) return Error{doc.error() + " (--scene)"};
-  for (const std::string& o : options.overrides) {
-    if (Status s = applySceneOverride(*doc, o); !s) return Error{s.error()};
-  }
+  FEM_CLOTH_CHECK(applySceneOverrides(*doc, options.overrides));
   return doc;
 }
 
@@ -473,7 +471,8 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   RunReplay& replay = **opened;
   settings.epoch = timeline->origin();
   if (run && !run->frame.empty()) settings.frame = run->frame;
-  report.warnings = simulation->warnings;
+  report.warnings = scene->warnings;
+  report.warnings.insert(report.warnings.end(), simulation->warnings.begin(), simulation->warnings.end());
   if (run) report.warnings.insert(report.warnings.end(), run->warnings.begin(), run->warnings.end());
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   driver.setTimeline(*timeline);

@@ -282,6 +282,7 @@ bool ClothNode::start(std::string* error) {
     *error = "scene: " + simulation.error();
     return false;
   }
+  for (const std::string& w : scene->warnings) ROS_WARN_STREAM("fem_cloth_node: scene: " << w);
   for (const std::string& w : simulation->warnings) ROS_WARN_STREAM("fem_cloth_node: mesh: " << w);
 
   if (replay && !takeReplayTime(*replay, scene->dt, error)) return false;

@@ -101,6 +101,32 @@ void overlayYaml(YAML::Node base, const YAML::Node& overlay) {
   }
 }
 
+namespace {
+
+/// The same scalar: the same text, or the same number (a parameter's double comes back as 17
+/// digits: 0.9 as 0.90000000000000002).
+bool sameScalar(const YAML::Node& a, const YAML::Node& b) {
+  if (!a.IsDefined() || !b.IsDefined() || !a.IsScalar() || !b.IsScalar()) return false;
+  if (a.Scalar() == b.Scalar()) return true;
+  double x = 0.0, y = 0.0;
+  return YAML::convert<double>::decode(a, x) && YAML::convert<double>::decode(b, y) && x == y;
+}
+
+}  // namespace
+
+std::vector<std::string> integratorKeysSet(const YAML::Node& parameters, const YAML::Node& file) {
+  const YAML::Node params = parameters["integrator"];
+  const YAML::Node own = file["integrator"];
+  std::vector<std::string> out;
+  if (!params.IsDefined() || !params.IsMap()) return out;
+  for (const auto& kv : params) {
+    const std::string key = kv.first.Scalar();
+    const bool fromFile = own.IsDefined() && own.IsMap() && sameScalar(own[key], kv.second);
+    if (!fromFile) out.push_back(key);
+  }
+  return out;
+}
+
 Expected<YAML::Node> sceneDocumentFromParameters(const ros::NodeHandle& privateNode,
                                                  const std::vector<std::string>& nodeKeys,
                                                  const std::string& defaultSceneFile,
@@ -122,7 +148,11 @@ Expected<YAML::Node> sceneDocumentFromParameters(const ros::NodeHandle& privateN
     if (!loaded) return Error{"~scene_file: " + loaded.error()};
     doc = *loaded;
   }
+  // An integrator key set by a parameter that the integrator does not read is refused, as with
+  // --set; one in the scene file is a warning (Scene::warnings).
+  const std::vector<std::string> given = integratorKeysSet(overlay, doc);
   overlayYaml(doc, overlay);
+  FEM_CLOTH_CHECK(checkGivenIntegratorKeys(doc, given, "parameter ~integrator/"));
   if (sourcePath != nullptr) *sourcePath = file;
   return doc;
 }

@@ -280,6 +280,7 @@ int checkScene(const Options& opt, const std::vector<std::string>& overrides) {
   }
   if (opt.check) {
     const Scene& s = loaded->scene;
+    for (const std::string& w : s.warnings) std::cerr << "fem_cloth_sim: warning: " << oneLine(w) << '\n';
     const Simulator& simulator = *loaded->simulation.simulator;
     std::cout << "scene ok:     " << s.name << " (" << opt.scene << "), "
               << simulator.model().numVertices() << " vertices, "
@@ -578,6 +579,7 @@ int runScene(const Options& opt, const std::vector<std::string>& overrides) {
   }
   const Scene& scene = loaded->scene;
   Simulation& sim = loaded->simulation;
+  for (const std::string& w : scene.warnings) std::cerr << "fem_cloth_sim: warning: " << oneLine(w) << '\n';
   for (const std::string& w : sim.warnings) std::cerr << "fem_cloth_sim: warning: " << oneLine(w) << '\n';
   Simulator& simulator = *sim.simulator;
   const double dt = scene.dt;

@@ -77,6 +77,8 @@ TEST(SceneYaml, EveryShippedSceneLoadsAndBuilds) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.error();
     EXPECT_GT(sim->model->numVertices(), 2);
     EXPECT_EQ(sim->simulator->integrator().name(), scene->integrator);
+    // No shipped scene carries a key its own integrator ignores.
+    EXPECT_TRUE(scene->warnings.empty()) << entry.path() << ": " << scene->warnings.front();
   }
   for (const char* expected :
        {"hanging_cloth.yaml", "planar_sheet.yaml", "seed_triangle.yaml", "stiff_cloth.yaml",
@@ -324,6 +326,69 @@ TEST(SceneYaml, Overrides) {
   expectOverrideError("integrator.dt.x=1", {"integrator.dt.x", "'dt' is not a map"});
   expectOverrideError("pins.3.release_at=1", {"pins.3.release_at", "'3' is not an index"});
   expectOverrideError("duration=[", {"duration=[", "not valid YAML"});
+}
+
+// An integrator key that the chosen integrator does not read would take no effect. Given on the
+// command line (--set, as loadScene's overrides) or as a node parameter it is an error naming
+// the key, the integrator, the integrators that read it and the keys this one reads; in the
+// scene file (a scene switched to another integrator keeps its own keys) it is a warning.
+TEST(SceneYaml, IntegratorKeysTheIntegratorDoesNotReadAreRefusedWhenGiven) {
+  const std::string fast = kConfigDir + "/hanging_cloth_fast.yaml";  // projective_dynamics
+  const std::string hanging = kConfigDir + "/hanging_cloth.yaml";    // symplectic_euler
+  auto expectRefused = [](const std::string& path, const std::vector<std::string>& overrides,
+                          const std::vector<std::string>& mentions) {
+    const Expected<Scene> s = loadScene(path, overrides);
+    ASSERT_FALSE(s.ok()) << overrides.back();
+    expectError(s.error(), mentions);
+  };
+  expectRefused(fast, {"integrator.newton_tolerance=1"},
+                {"--set integrator.newton_tolerance", "integrator projective_dynamics does not use",
+                 "read by backward_euler, bdf2", "projective_dynamics reads: ", "chebyshev_rho"});
+  expectRefused(hanging, {"integrator.name=backward_euler", "integrator.iterations=5"},
+                {"--set integrator.iterations", "integrator backward_euler does not use",
+                 "read by xpbd, projective_dynamics", "newton_tolerance", "solver"});
+  expectRefused(hanging, {"integrator.solver=lbfgs"},
+                {"--set integrator.solver", "integrator symplectic_euler does not use",
+                 "read by backward_euler, bdf2", "symplectic_euler reads: ", "cfl_safety"});
+  // The integrator the overrides end with decides, whatever their order.
+  expectRefused(fast, {"integrator.chebyshev_rho=0.5", "integrator.name=xpbd"},
+                {"integrator.chebyshev_rho", "integrator xpbd does not use"});
+  expectRefused(hanging, {"integrator={name: backward_euler, iterations: 3}"},
+                {"--set integrator.iterations", "integrator backward_euler does not use"});
+  for (const std::vector<std::string>& good :
+       {std::vector<std::string>{"integrator.iterations=5", "integrator.name=xpbd"},
+        {"integrator.name=bdf2", "integrator.solver=lbfgs"},
+        {"integrator.error_ratio=0.05"},  // projective dynamics reads the displacement test too
+        {"integrator={name: xpbd, iterations: 3}"}}) {
+    const Expected<Scene> s = loadScene(good.front().find("error_ratio") == std::string::npos ? hanging : fast, good);
+    EXPECT_TRUE(s.ok()) << good.front() << ": " << s.error();
+  }
+  // As node parameters (sceneDocumentFromParameters passes the keys under ~integrator/).
+  const YAML::Node pd = YAML::Load("{integrator: {name: projective_dynamics, iterations: 7}}");
+  const Status node = checkGivenIntegratorKeys(pd, {"iterations", "newton_tolerance"}, "parameter ~integrator/");
+  ASSERT_FALSE(node.ok());
+  expectError(node.error(), {"parameter ~integrator/newton_tolerance", "integrator projective_dynamics"});
+  EXPECT_TRUE(checkGivenIntegratorKeys(pd, {"iterations", "dt", "name"}, "parameter ~integrator/").ok());
+  // No integrator.name: the default integrator (backward_euler) decides.
+  EXPECT_FALSE(checkGivenIntegratorKeys(YAML::Load("{mesh: {rows: 3}}"), {"iterations"}, "x").ok());
+}
+
+TEST(SceneYaml, IntegratorKeysInTheFileThatTheIntegratorDoesNotReadAreWarnings) {
+  // hanging_cloth_fast.yaml gives projective dynamics' iterations and chebyshev_rho; switched
+  // to backward Euler it loads, with one warning for each.
+  const Expected<Scene> switched =
+      loadScene(kConfigDir + "/hanging_cloth_fast.yaml", {"integrator.name=backward_euler", "material.model=stvk"});
+  ASSERT_TRUE(switched.ok()) << switched.error();
+  ASSERT_EQ(switched->warnings.size(), 2u);
+  expectError(switched->warnings[0], {"integrator.iterations is ignored", "backward_euler", "projective_dynamics"});
+  expectError(switched->warnings[1], {"integrator.chebyshev_rho is ignored", "backward_euler"});
+  const Expected<Scene> own = parse(variant("integrator.max_newton_iterations", "5"));
+  ASSERT_TRUE(own.ok()) << own.error();
+  EXPECT_TRUE(own->warnings.empty());
+  const Expected<Scene> foreign = parse(variant("integrator.cfl_safety", "0.5"));
+  ASSERT_TRUE(foreign.ok()) << foreign.error();
+  ASSERT_EQ(foreign->warnings.size(), 1u);
+  expectError(foreign->warnings[0], {"integrator.cfl_safety", "backward_euler", "symplectic_euler"});
 }
 
 // Grid selections: (row, col) with negative indices counting from the end, so -1 is the last

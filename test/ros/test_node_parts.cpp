@@ -3,6 +3,7 @@
 // services and the run loop, the policy for waiting for transforms, and the tf intake.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <map>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include "fem_cloth/ros/bag_io.h"
 #include "fem_cloth/ros/command_queue.h"
 #include "fem_cloth/ros/run_control.h"
+#include "fem_cloth/ros/scene_params.h"
 #include "fem_cloth/ros/tf_intake.h"
 #include "fem_cloth/ros/time_checks.h"
 #include "fem_cloth/ros/transform_wait.h"
@@ -40,6 +42,30 @@ std::uint32_t vertexOf(const Command& c) {
 }  // namespace
 
 // --- Time checks ---------------------------------------------------------------------------------
+
+// The node's integrator keys: cloth.launch loads the scene file's keys as parameters as well
+// as naming the file, so a parameter that repeats the file's value (0.9 comes back from the
+// parameter server as the double 0.90000000000000002) is the file's, not set by the user; a
+// changed value or a new key is set. Only keys set are refused when the integrator does not
+// read them (checkGivenIntegratorKeys); the file's are warnings.
+TEST(SceneParams, IntegratorKeysSetAreThoseTheFileDoesNotGive) {
+  const YAML::Node file = YAML::Load("{integrator: {name: projective_dynamics, iterations: 7, chebyshev_rho: 0.9}}");
+  XmlRpc::XmlRpcValue params;
+  params["name"] = std::string("backward_euler");
+  params["iterations"] = 7;
+  params["chebyshev_rho"] = 0.9;
+  XmlRpc::XmlRpcValue root;
+  root["integrator"] = params;
+  EXPECT_EQ(integratorKeysSet(toYaml(root), file), std::vector<std::string>{"name"});
+  params["chebyshev_rho"] = 0.5;
+  params["newton_tolerance"] = 1.0;
+  root["integrator"] = params;
+  std::vector<std::string> set = integratorKeysSet(toYaml(root), file);
+  std::sort(set.begin(), set.end());
+  EXPECT_EQ(set, (std::vector<std::string>{"chebyshev_rho", "name", "newton_tolerance"}));
+  EXPECT_TRUE(integratorKeysSet(YAML::Load("{mesh: {rows: 3}}"), file).empty());
+  EXPECT_EQ(integratorKeysSet(toYaml(root), YAML::Load("{mesh: {rows: 3}}")).size(), 4u);
+}
 
 TEST(TimeChecks, RostimeThrowsWhereTheCheckedVersionsGiveNamedErrors) {
   // What issue 11 found: a stamp of 2^32 - 1 s minus an epoch of today is no ros::Duration.

@@ -144,6 +144,11 @@ struct Scene {
   /// Keys of one integrator alone (symplectic_euler's auto_substep and cfl_safety,
   /// projective_dynamics' chebyshev_rho), in settings its registry entry defines (registry.h).
   IntegratorOptions integratorOptions;
+  /// What the scene gives that takes no effect, worth logging once when it is loaded: keys under
+  /// `integrator` that the chosen integrator does not read (a scene switched to another
+  /// integrator). Given on the command line or as node parameters they are errors instead
+  /// (checkGivenIntegratorKeys, io/scene_yaml.h).
+  std::vector<std::string> warnings;
 
   std::vector<ScenePin> pins;
   std::vector<SceneForce> forces;

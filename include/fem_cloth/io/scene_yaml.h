@@ -25,11 +25,23 @@ constexpr std::uintmax_t kMaxSceneFileBytes = 16u << 20;
 Expected<YAML::Node> parseSceneText(const std::string& text, const std::string& where);
 
 /// Reads a scene document and applies `key.path=value` overrides (the value is YAML: a number,
-/// a word, or a [list]).
+/// a word, or a [list]) with applySceneOverrides.
 Expected<YAML::Node> loadSceneDocument(const std::string& path,
                                        const std::vector<std::string>& overrides = {});
 /// Applies one `key.path=value` override to a document; the path must name a known key.
 Status applySceneOverride(YAML::Node& document, const std::string& assignment);
+/// Applies the overrides in order, then checks with checkGivenIntegratorKeys that the
+/// integrator the document ends with reads every `integrator.KEY` among them: a setting given on
+/// the command line that would take no effect (integrator.iterations for backward_euler) is an
+/// error naming the key, the integrator and the keys it reads.
+Status applySceneOverrides(YAML::Node& document, const std::vector<std::string>& overrides);
+/// Keys under `integrator` given explicitly (by `source`, which the error names followed by the
+/// key: "--set integrator.", "parameter ~integrator/") must be read by the document's integrator
+/// (integrator.name, or the default). Keys in the scene file itself that the integrator does not
+/// read are not errors but Scene::warnings (parseScene), since a scene switched to another
+/// integrator keeps its own integrator's keys.
+Status checkGivenIntegratorKeys(const YAML::Node& document, const std::vector<std::string>& keys,
+                                const std::string& source);
 /// Converts a document into a validated Scene; sourcePath resolves relative mesh files and
 /// preset files. `material: {preset: NAME}` merges a fabric preset from config/materials/
 /// (docs/materials.md, "Presets") under the scene's own keys.

@@ -44,11 +44,20 @@ XmlRpc::XmlRpcValue toXmlRpc(const YAML::Node& node);
 /// Maps of `overlay` replace or extend those of `base`, key by key; other values replace.
 void overlayYaml(YAML::Node base, const YAML::Node& overlay);
 
+/// The keys under `integrator` that the parameters (as a document) set, leaving out those that
+/// repeat the scene file's own value (the same text or number): cloth.launch loads the file's
+/// keys as parameters too, and a key of another integrator there is the file's (a warning), not
+/// one the user set (an error).
+std::vector<std::string> integratorKeysSet(const YAML::Node& parameters, const YAML::Node& file);
+
 /// The scene document of a node: the YAML file named by the private parameter `scene_file`
 /// (or `defaultSceneFile` when neither it nor any scene key is set), overlaid with every
 /// private parameter that is not one of `nodeKeys`, so that a launch file's `rosparam load` of a
 /// scene, or a single `<param>`, sets or overrides scene keys. sourcePath receives the file used
-/// (relative mesh files resolve against it).
+/// (relative mesh files resolve against it). A parameter under ~integrator/ that the document's
+/// integrator does not read is an error naming it (checkGivenIntegratorKeys), unless it repeats
+/// the scene file's own value (cloth.launch loads the file's keys as parameters as well): a key
+/// of the file is a warning (Scene::warnings).
 Expected<YAML::Node> sceneDocumentFromParameters(const ros::NodeHandle& privateNode,
                                                  const std::vector<std::string>& nodeKeys,
                                                  const std::string& defaultSceneFile,

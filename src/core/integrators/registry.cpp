@@ -122,6 +122,46 @@ std::vector<std::string> integratorKeys() {
   return keys;
 }
 
+std::vector<std::string> integratorKeysOf(const std::string& name) {
+  Expected<const IntegratorEntry*> found = findIntegrator(name);
+  if (!found) return {};
+  std::vector<std::string> keys = {"name", "dt", "substeps", "max_retries"};
+  keys.insert(keys.end(), (*found)->keys.begin(), (*found)->keys.end());
+  return keys;
+}
+
+namespace {
+
+/// The integrators that read `key` (their own keys; the common ones are read by all).
+std::vector<std::string> integratorsReading(const std::string& key) {
+  std::vector<std::string> out;
+  for (const IntegratorEntry& e : integratorRegistry()) {
+    if (std::find(e.keys.begin(), e.keys.end(), key) != e.keys.end()) out.push_back(e.name);
+  }
+  return out;
+}
+
+bool readsKey(const std::string& name, const std::string& key) {
+  const std::vector<std::string> keys = integratorKeysOf(name);
+  return keys.empty() || std::find(keys.begin(), keys.end(), key) != keys.end();
+}
+
+}  // namespace
+
+Status checkIntegratorUsesKey(const std::string& name, const std::string& key, const std::string& source) {
+  const std::vector<std::string> readers = integratorsReading(key);
+  if (readers.empty() || readsKey(name, key)) return Status::success();
+  return Error{source + ": integrator " + name + " does not use integrator." + key + " (read by " +
+               commaList(readers) + "); " + name + " reads: " + commaList(integratorKeysOf(name))};
+}
+
+std::string unusedIntegratorKeyNote(const std::string& name, const std::string& key) {
+  const std::vector<std::string> readers = integratorsReading(key);
+  if (readers.empty() || readsKey(name, key)) return "";
+  return "integrator." + key + " is ignored: integrator " + name + " does not use it (read by " +
+         commaList(readers) + ")";
+}
+
 Status checkIntegratorSupports(const Scene& s) {
   Expected<const IntegratorEntry*> found = findIntegrator(s.integrator);
   if (!found) return Error{"integrator.name: " + found.error()};

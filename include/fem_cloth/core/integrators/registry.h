@@ -108,6 +108,22 @@ Expected<const IntegratorEntry*> findIntegrator(const std::string& name);
 /// own, each once.
 std::vector<std::string> integratorKeys();
 
+/// The keys under `integrator` that the integrator called `name` reads: the common ones, then
+/// its own. Empty for an unknown name.
+std::vector<std::string> integratorKeysOf(const std::string& name);
+
+/// `key` (under `integrator`) given by `source` ("--set", "parameter ~integrator/...") when the
+/// integrator is `name`: an error naming the key, the integrator, the keys it reads and the
+/// integrators that read this one, if `name` does not read it (a setting that would otherwise
+/// be ignored silently); success for a key it reads, or for an unknown integrator or key (those
+/// are refused by name when the scene is read).
+Status checkIntegratorUsesKey(const std::string& name, const std::string& key, const std::string& source);
+
+/// The note for a key under `integrator` in a scene document that the integrator called `name`
+/// does not read (a scene switched to another integrator, e.g. with --integrator): the key,
+/// the integrator and the integrators that read it; empty if `name` reads it.
+std::string unusedIntegratorKeyNote(const std::string& name, const std::string& key);
+
 /// Why the scene's integrator cannot simulate the scene (material, bending model, planar mesh,
 /// obstacles, self-contact, stiffness damping), naming the key, what the integrator supports
 /// and which integrators would take the scene; success if it can. The scene's integrator must
