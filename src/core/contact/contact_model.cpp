@@ -125,7 +125,7 @@ std::string ContactModel::surfaceCrossing(const VectorX& x, std::size_t k) const
     const Shape& shape = (*obstacles_)[k].shape;
     for (Index t = 0; t < mesh_->numTriangles(); ++t) {
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
-      if (!(isFree(tri[0]) || isFree(tri[1]) || isFree(tri[2]))) continue;
+      if (!(isFree(tri[0]) && isFree(tri[1]) && isFree(tri[2]))) continue;  // the pin wins
       const Eigen::Vector3d a = inverse * vertex(x, tri[0]), b = inverse * vertex(x, tri[1]), c = inverse * vertex(x, tri[2]);
       const double d = *triangleShapeDistance(shape, a, b, c);
       if (d > 0.0) continue;
