@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <cmath>
 #include <iostream>
+#include <vector>
 
 #include "config_scene.h"
 #include "fem_cloth/core/integrators/implicit.h"
@@ -382,6 +384,57 @@ TEST(Contact, BlocksInTheInitialHessianSaveIterationsOnLanding) {
   expectRestingAtHalfTheContactDistance(with, "with blocks");
   EXPECT_EQ(with.fallbacks, 0);
   EXPECT_LT(with.quasiNewton, without.quasiNewton);
+}
+
+namespace {
+
+// config/flag.yaml (13 x 21 stvk cloth, bending 1e-5 N m, wind, backward Euler at dt 0.01) for
+// 0.5 s at step dt with the scene keys `overrides`: the positions after every 0.01 s.
+std::vector<VectorX> flagTrajectory(const std::vector<std::string>& overrides, int substepsPerStep = 1) {
+  Scene scene = loadScene(std::string(FEM_CLOTH_CONFIG_DIR) + "/flag.yaml", overrides).value();
+  scene.dt /= substepsPerStep;
+  Simulation sim = mustBuild(scene);
+  std::vector<VectorX> states;
+  const std::string error = run(sim, 50 * substepsPerStep, [&](int k, const StepReport&) {
+    if (k % substepsPerStep == 0) states.push_back(sim.simulator->state().x);
+  });
+  EXPECT_EQ(error, "");
+  return states;
+}
+
+double rmsVertex(const VectorX& a, const VectorX& b) { return (a - b).norm() / std::sqrt(a.size() / 3.0); }
+
+double worstOverStates(const std::vector<VectorX>& a, const std::vector<VectorX>& b) {
+  double worst = 0.0;
+  for (size_t k = 0; k < std::min(a.size(), b.size()); ++k) worst = std::max(worst, worstVertex(a[k], b[k]));
+  return worst;
+}
+
+}  // namespace
+
+// Issue 29: L-BFGS at the default tolerance is as right as Newton at it. Its own error estimate
+// (the next L-BFGS step, B0 = the rest stiffness outside its pairs) understated the distance to
+// the minimum about 100 x where the flag bends out of plane, and it ended 0.70 x backward
+// Euler's own error from the converged trajectory (scripts/sameness); Newton's check of its
+// solution now decides. Reference: Newton at the tight tolerance of scripts/sameness; backward
+// Euler's own error: the reference against dt/8 at that tolerance; L-BFGS must be within 0.25 x
+// that (the bound of item 1), at the end (RMS over vertices) and at the worst vertex of any step.
+TEST(Acceptance, LbfgsOnTheFlagIsWithinAQuarterOfBackwardEulersOwnError) {
+  const std::vector<std::string> tight = {"integrator.error_ratio=1e-4", "integrator.error_cap=1e-4",
+                                          "integrator.error_floor=1e-9", "integrator.max_newton_iterations=500"};
+  const std::vector<VectorX> reference = flagTrajectory(tight), fine = flagTrajectory(tight, 8);
+  const std::vector<VectorX> lbfgs = flagTrajectory({"integrator.solver=lbfgs"});
+  ASSERT_EQ(reference.size(), 50u);
+  ASSERT_EQ(fine.size(), 50u);
+  ASSERT_EQ(lbfgs.size(), 50u);
+  const double ownEnd = rmsVertex(reference.back(), fine.back()), ownMax = worstOverStates(reference, fine);
+  const double end = rmsVertex(reference.back(), lbfgs.back()), max = worstOverStates(reference, lbfgs);
+  std::cout << "flag: backward Euler's own error " << ownEnd << " m RMS at the end, " << ownMax
+            << " m at worst; L-BFGS " << end << " m (" << end / ownEnd << " x), " << max << " m (" << max / ownMax
+            << " x)\n";
+  EXPECT_GT(ownEnd, 1e-3);  // the flag moves: the comparison is not between zeros
+  EXPECT_LE(end, 0.25 * ownEnd);
+  EXPECT_LE(max, 0.25 * ownMax);
 }
 
 }  // namespace fem_cloth::test

@@ -94,7 +94,7 @@ bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate&
   return solved;
 }
 
-NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& it) {
+NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& it, bool acceptAtStart) {
   IncrementalPotential& potential = *problem.potential;
   const double h = potential.frame().h;
   const double stepTolerance = problem.stepTolerance;
@@ -127,6 +127,12 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
       outcome.ok = false;
       outcome.error = "the linear solve (" + solver_->name() + ") failed";
       return outcome;
+    }
+    if (acceptAtStart && outcome.iterations == 1) {
+      // The check of another solver's solution: the Newton correction by the Hessian at `it`
+      // itself is the distance to the minimum to first order; if it is small enough, stop there.
+      outcome.displacement = problem.error(it, dx_);
+      if (outcome.displacement.within()) break;
     }
     const double stepLength = dx_.cwiseAbs().maxCoeff();
     lastStep = stepLength;

@@ -39,8 +39,10 @@
 namespace fem_cloth {
 
 /// Which solver minimises Phi (`integrator.solver`): projected Newton (solvers/newton.h) or
-/// L-BFGS on a prefactored rest-state matrix (solvers/lbfgs.h), which falls back to Newton for a
-/// substep where it stalls (StepReport::solverFallbacks counts them).
+/// L-BFGS on a prefactored rest-state matrix (solvers/lbfgs.h), whose solution of a substep is
+/// accepted only when Newton's correction there (one projected Hessian) is within the tolerance,
+/// and which falls back to Newton for a substep where it stalls or that check refuses
+/// (StepReport::solverFallbacks counts them).
 enum class ImplicitSolver { Newton, Lbfgs };
 
 struct ImplicitSolverSettings {

@@ -128,8 +128,8 @@ struct StepReport {
   bool retryable = true;
   int substeps = 0;
   int newtonIterations = 0;
-  /// Iterations of the quasi-Newton solver (integrator.solver: lbfgs), and the substeps where it
-  /// stalled and Newton finished the solve (whose iterations count as newtonIterations).
+  /// L-BFGS iterations (integrator.solver: lbfgs); substeps where it stalled or Newton's check refused its solution
+  /// and Newton finished (newtonIterations counts the check, one Hessian factorised, and Newton's iterations).
   int quasiNewtonIterations = 0;
   int solverFallbacks = 0;
   /// The unbalanced force the solver left (acceptance test (a)), the worst over the substeps;

@@ -80,8 +80,10 @@ class NewtonSolver {
   /// Drops the factorisation (the pattern changed).
   void invalidate() { solver_.reset(); }
   /// Newton's iterations from `it` (evaluated there) until converged; `it` ends at the last
-  /// accepted iterate.
-  NewtonOutcome solve(const NewtonProblem& problem, NewtonIterate& it);
+  /// accepted iterate. acceptAtStart: `it` is a candidate solution (another solver's), accepted
+  /// without a move when the first Newton correction, by the projected Hessian assembled and
+  /// factorised at `it`, is within the tolerance; else Newton goes on from there with it.
+  NewtonOutcome solve(const NewtonProblem& problem, NewtonIterate& it, bool acceptAtStart = false);
 
  private:
   /// Assembles the system at it.x and solves it for dx_.
