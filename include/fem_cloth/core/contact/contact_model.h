@@ -173,12 +173,14 @@ class ContactModel {
   bool obstacleReaches(std::size_t k, const Eigen::Vector3d& p);
   /// The obstacle's speed over the substep (m/s; its translation), for messages.
   double obstacleSpeed(std::size_t k) const;
-  /// A surface sample takes obstacle contact when one of its vertices is free.
+  /// A surface sample takes obstacle contact when all its vertices are free: as a pinned vertex
+  /// takes none (the pin wins, and may hold the cloth inside an obstacle), neither do the
+  /// points of its triangles.
   bool sampleTakesContact(const SurfaceSample& s) const {
     for (int i = 0; i < s.count; ++i) {
-      if (isFree(s.vertices[static_cast<std::size_t>(i)])) return true;
+      if (!isFree(s.vertices[static_cast<std::size_t>(i)])) return false;
     }
-    return false;
+    return true;
   }
   static Eigen::Vector3d samplePoint(const VectorX& x, const SurfaceSample& s) {
     Eigen::Vector3d p = Eigen::Vector3d::Zero();
