@@ -452,6 +452,8 @@ void takeAttempt(StepReport& total, const StepReport& r) {
   total.contactEnergy = r.contactEnergy;
   total.airWork = r.airWork;
   total.minContactDistance = r.minContactDistance;
+  total.boxDepth = r.boxDepth;
+  total.boxDepthWhere = r.boxDepthWhere;
   if (r.ok) {
     total.dissipated = r.dissipated;
     total.pinWork = r.pinWork;

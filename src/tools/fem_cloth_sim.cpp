@@ -78,10 +78,20 @@ struct Totals {
   NewtonTimes newtonTimes;
   double minAreaRatio = std::numeric_limits<double>::infinity();
   double maxStretch = -std::numeric_limits<double>::infinity();
+  // The deepest the cloth's surface reached into a box between its vertices (StepReport), where,
+  // and in which step.
+  double boxDepth = 0.0;
+  std::string boxDepthWhere;
+  std::uint64_t boxDepthStep = 0;
 
   /// Counts an accepted step.
   void addStep(const StepReport& r) {
     ++steps;
+    if (r.boxDepth > boxDepth) {
+      boxDepth = r.boxDepth;
+      boxDepthWhere = r.boxDepthWhere;
+      boxDepthStep = steps;
+    }
     newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
     quasiNewtonIterations += static_cast<std::uint64_t>(r.quasiNewtonIterations);
     solverFallbacks += static_cast<std::uint64_t>(r.solverFallbacks);
@@ -209,9 +219,21 @@ Json balanceJson(const EnergyReport& e, const BalanceJudgement& b) {
 }
 
 // "failed" (the run stopped at an error), "warning" (it ran to the end, but its energy balance is
-// out of tolerance, or pins yanked the cloth) or "ok".
-const char* runStatus(const std::string& failure, const EnergyReport& e, const BalanceJudgement& b) {
-  return !failure.empty() ? "failed" : (b.ok() && e.pinJumps == 0) ? "ok" : "warning";
+// out of tolerance, pins yanked the cloth, or its surface reached into a box) or "ok".
+const char* runStatus(const std::string& failure, const EnergyReport& e, const BalanceJudgement& b,
+                      bool intoBox = false) {
+  return !failure.empty() ? "failed" : (b.ok() && e.pinJumps == 0 && !intoBox) ? "ok" : "warning";
+}
+
+// The summary's line, and the warning, when the cloth's surface reached into a box between its
+// vertices (boxes keep vertices out, not the points between them: docs/contact.md, Limits).
+std::string boxDepthText(const Totals& t) {
+  std::ostringstream text;
+  text << std::setprecision(3) << "the cloth's surface reached " << 1e3 * t.boxDepth << " mm into " << t.boxDepthWhere
+       << " between its vertices (step " << t.boxDepthStep
+       << "; at least: a grid of points per triangle): boxes keep vertices out, not edges and triangles "
+          "(docs/contact.md, Limits)";
+  return text.str();
 }
 
 // The summaries' work line: every work term of the balance (EnergyReport), so that the balance
@@ -478,9 +500,11 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
     summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations + totals.quasiNewtonIterations);
   }
   summary << errorLine(totals.worstError);
+  if (totals.boxDepth > 0.0) summary << "surface:      " << boxDepthText(totals) << '\n';
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
   warnAboutBalance(balance);
+  if (totals.boxDepth > 0.0) std::cerr << "fem_cloth_sim: warning: " << oneLine(boxDepthText(totals)) << '\n';
 }
 
 // Watches a run after every step: the smallest area ratio and the largest stretch so far, and on
@@ -552,7 +576,7 @@ Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals
                   const Stepped& stepped, const EdgeStretch& st, const Json& files) {
   const EnergyReport e = simulator.energies();
   const BalanceJudgement balance = simulator.balance(e);
-  return Json{{"status", runStatus(stepped.failure, e, balance)},
+  return Json{{"status", runStatus(stepped.failure, e, balance, totals.boxDepth > 0.0)},
               {"error", stepped.failure},
               {"scene", scene.name},
               {"integrator", simulator.integrator().name()},
@@ -566,6 +590,7 @@ Json sceneRunJson(const Scene& scene, Simulator& simulator, const Totals& totals
               {"min_area_ratio", totals.minAreaRatio},
               {"max_residual", totals.maxResidual},
               {"displacement_error", displacementErrorJson(totals.worstError)},
+              {"box_depth", totals.boxDepth},
               {"state_hash", stateHash(simulator.state().x, simulator.state().v)},
               {"outputs", files}};
 }
@@ -739,7 +764,8 @@ int run(int argc, char** argv) {
                  "also write the summary as JSON to this file (status ok, warning or failed; "
                  "energies, the energy balance as judged, stretch, final state hash; on a failed "
                  "run the state reached and the error). warning: the run ended, but its energy "
-                 "balance is out of tolerance or pins jumped (the exit status is still 0)");
+                 "balance is out of tolerance, pins jumped, or the cloth's surface reached into a box "
+                 "between its vertices (the exit status is still 0)");
   app.add_option("--write-scene", opt.writeScene,
                  "write the scene with the --set overrides applied to this YAML file (runs "
                  "again with --scene FILE alone)");

@@ -20,6 +20,7 @@
 #include <iostream>
 
 #include "config_scene.h"
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/contact/edge_distance.h"
 #include "fem_cloth/core/contact/surface_samples.h"
 #include "obstacle_check.h"
@@ -173,6 +174,45 @@ TEST(ContactEdges, ClothThroughABallBetweenVerticesIsRefusedAtTheStart) {
   // 3 cm lower, the ball clears the cloth: built.
   scene.obstacles[0].center.z() = -0.035;
   EXPECT_TRUE(buildSimulation(scene).ok());
+}
+
+// Boxes keep vertices out, not the points between them (docs/contact.md, Limits): what the
+// surface reaches into a box is measured after each substep and reported. A 3 x 3 sheet folded
+// over the box's edge (x = z = 0.1 m): its first row 2 cm outside the +x face at z = 0.05, its
+// second 2 cm above the top at x = 0.05, its third at x = -0.05. Between the first two rows a
+// point at the fraction t of the way has x = 0.12 - 0.07 t and z = 0.05 + 0.07 t, so its depth
+// min(0.1 - x, 0.1 - z) is largest at t = 1/2: 0.015 m (by hand), on the measuring grid.
+TEST(ContactEdges, BoxDepthOfASheetFoldedOverAnEdge) {
+  Scene scene = gridScene(3, 3, 0.1, "backward_euler");
+  Simulation sim = mustBuild(scene);
+  Obstacle box;
+  box.name = "block";
+  box.shape.type = ShapeType::Box;
+  box.shape.halfExtents = Eigen::Vector3d(0.1, 0.1, 0.1);
+  ContactSettings settings;
+  settings.distance = 2e-3;
+  ContactModel contact(*sim.model, {box}, settings, 9.81);
+  VectorX x(27);
+  for (Index v = 0; v < 9; ++v) {
+    const double y = -0.05 + 0.05 * (v % 3);
+    const Eigen::Vector3d rows[3] = {{0.12, y, 0.05}, {0.05, y, 0.12}, {-0.05, y, 0.12}};
+    x.segment<3>(3 * v) = rows[v / 3];
+  }
+  const std::vector<char> pinned(27, 0);
+  contact.obstacles().beginStep(0.0, 0.01);
+  contact.beginSubstep(x, x, 100.0, 0.01, pinned, 0.0, 1.0);
+  contact.prepareSegment(x, VectorX::Zero(27));
+  ContactStats stats;
+  contact.finishSubstep(x, x, stats);
+  EXPECT_NEAR(stats.boxDepth, 0.015, 1e-12);
+  EXPECT_NE(stats.boxDepthWhere.find("in box 'block'"), std::string::npos) << stats.boxDepthWhere;
+  // Unfolded flat on the top (every point 2 cm above it): nothing inside.
+  for (Index v = 0; v < 9; ++v) x[3 * v + 2] = 0.12;
+  ContactStats flat;
+  contact.beginSubstep(x, x, 100.0, 0.01, pinned, 0.0, 1.0);
+  contact.prepareSegment(x, VectorX::Zero(27));
+  contact.finishSubstep(x, x, flat);
+  EXPECT_EQ(flat.boxDepth, 0.0);
 }
 
 namespace {

@@ -77,6 +77,7 @@ void ContactModel::sampleSurface(const Model& model) {
   round_.assign(obstacles_->size(), 0);
   double thinnest = kInf;
   for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+    hasBox_ = hasBox_ || (*obstacles_)[k].shape.type == ShapeType::Box;
     if (!obstacles_->hasEdgeDistance(k)) continue;
     round_[k] = 1;
     thinnest = std::min(thinnest, (*obstacles_)[k].shape.radius);
@@ -136,6 +137,36 @@ std::string ContactModel::surfaceCrossing(const VectorX& x, std::size_t k) const
     }
   }
   return {};
+}
+
+void ContactModel::measureBoxDepth(const VectorX& x, ContactStats& stats) const {
+  // A grid of n divisions per triangle (66 points): a lower bound of the depth, the depth of a
+  // point being the distance it would have to move to leave the box, min_i (h_i - |p_i|).
+  constexpr int n = 10;
+  for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+    const Shape& shape = (*obstacles_)[k].shape;
+    if (shape.type != ShapeType::Box) continue;
+    const Eigen::Isometry3d& inverse = obstacles_->inverseEnd(k);
+    for (Index t = 0; t < mesh_->numTriangles(); ++t) {
+      const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
+      if (!(isFree(tri[0]) && isFree(tri[1]) && isFree(tri[2]))) continue;  // the pin wins
+      const Eigen::Vector3d a = inverse * vertex(x, tri[0]), b = inverse * vertex(x, tri[1]), c = inverse * vertex(x, tri[2]);
+      // Every point of the triangle is within its longest side of a vertex: a vertex farther
+      // from the box than that leaves no point inside.
+      const double side = std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
+      if (signedDistance(shape, a).distance > side) continue;
+      for (int i = 0; i <= n; ++i) {
+        for (int j = 0; i + j <= n; ++j) {
+          const double l0 = static_cast<double>(i) / n, l1 = static_cast<double>(j) / n;
+          const Eigen::Vector3d p = l0 * a + l1 * b + (1.0 - l0 - l1) * c;
+          const double depth = (shape.halfExtents - p.cwiseAbs()).minCoeff();
+          if (depth <= stats.boxDepth) continue;
+          stats.boxDepth = depth;
+          stats.boxDepthWhere = "triangle " + std::to_string(t) + " in box '" + (*obstacles_)[k].name + "'";
+        }
+      }
+    }
+  }
 }
 
 Status ContactModel::checkSurfaceAtStart(const VectorX& x, const std::vector<Index>& pinned) {
@@ -952,6 +983,7 @@ void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactSta
   stats.dissipated += here.dissipated;
   stats.stored = here.stored;
   if (stats.crossing.empty()) stats.crossing = surfaceCrossing(x);
+  if (hasBox_) measureBoxDepth(x, stats);
   pinned_ = nullptr;
 }
 

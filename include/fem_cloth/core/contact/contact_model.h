@@ -199,6 +199,9 @@ class ContactModel {
   /// The first triangle that reaches into a round obstacle at x (the obstacles where they end
   /// the substep), as a message naming both; empty if none does.
   std::string surfaceCrossing(const VectorX& x) const;
+  /// The deepest point of a grid on each triangle with a free vertex inside a box at x (boxes
+  /// keep vertices out, not the points between them), into stats.boxDepth and boxDepthWhere.
+  void measureBoxDepth(const VectorX& x, ContactStats& stats) const;
   /// The same for obstacle k alone.
   std::string surfaceCrossing(const VectorX& x, std::size_t k) const;
   FrictionShare frictionShare(const Friction& f, const VectorX& x, bool wantHessian) const;
@@ -266,6 +269,7 @@ class ContactModel {
   std::vector<SurfaceSample> samples_;
   std::vector<std::vector<std::pair<int, int>>> samplesOfVertex_;
   std::vector<char> round_;  // per obstacle: a sphere or capsule
+  bool hasBox_ = false;      // a box among the obstacles (measureBoxDepth)
   std::vector<char> reached_;  // startingPoint: vertex x obstacle, reached over the substep
   double substepLength_ = 0.0;  // s
 

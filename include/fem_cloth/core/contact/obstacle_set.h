@@ -56,6 +56,12 @@ struct ContactStats {
   /// Not empty: the substep left the cloth through an obstacle (the projection's edge check):
   /// the step fails with this message.
   std::string crossing;
+  /// m: how deep the cloth's surface reaches into a box between its vertices at the end of the
+  /// substep (boxes keep vertices out, not the points between them: docs/contact.md), at least:
+  /// the deepest of a grid of points on each triangle; 0 when none is inside. Where: "triangle
+  /// 99 in box 'table'".
+  double boxDepth = 0.0;
+  std::string boxDepthWhere;
 };
 
 class ObstacleSet {

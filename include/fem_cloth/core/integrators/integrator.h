@@ -126,6 +126,10 @@ struct StepReport {
   /// False when more substeps cannot help (a step size the settings refuse, a model the
   /// integrator cannot handle): the simulator then returns the error without retrying.
   bool retryable = true;
+  /// m: the deepest the cloth's surface reached into a box between its vertices over the
+  /// substeps (ContactStats::boxDepth; at least), and where; 0 and empty when it did not.
+  double boxDepth = 0.0;
+  std::string boxDepthWhere;
   int substeps = 0;
   int newtonIterations = 0;
   /// L-BFGS iterations (integrator.solver: lbfgs); substeps where it stalled or Newton's check refused its solution

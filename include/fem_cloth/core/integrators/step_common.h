@@ -51,6 +51,10 @@ inline void recordContact(const ContactStats& stats, StepReport& report) {
   report.contactWork += stats.work;
   report.dissipated += stats.dissipated;
   report.contactEnergy = stats.stored;
+  if (stats.boxDepth > report.boxDepth) {
+    report.boxDepth = stats.boxDepth;
+    report.boxDepthWhere = stats.boxDepthWhere;
+  }
   if (!stats.crossing.empty() && report.ok) {
     report.ok = false;
     report.error = stats.crossing;
