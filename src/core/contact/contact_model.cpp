@@ -151,10 +151,13 @@ void ContactModel::measureBoxDepth(const VectorX& x, ContactStats& stats) const 
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
       if (!(isFree(tri[0]) && isFree(tri[1]) && isFree(tri[2]))) continue;  // the pin wins
       const Eigen::Vector3d a = inverse * vertex(x, tri[0]), b = inverse * vertex(x, tri[1]), c = inverse * vertex(x, tri[2]);
-      // Every point of the triangle is within its longest side of a vertex: a vertex farther
-      // from the box than that leaves no point inside.
-      const double side = std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
-      if (signedDistance(shape, a).distance > side) continue;
+      // A triangle with its three vertices beyond the same face's plane has no point inside (a
+      // cloth lying on a table top).
+      const Eigen::Vector3d& h = shape.halfExtents;
+      if (((a.array() > h.array()) && (b.array() > h.array()) && (c.array() > h.array())).any() ||
+          ((a.array() < -h.array()) && (b.array() < -h.array()) && (c.array() < -h.array())).any()) {
+        continue;
+      }
       for (int i = 0; i <= n; ++i) {
         for (int j = 0; i + j <= n; ++j) {
           const double l0 = static_cast<double>(i) / n, l1 = static_cast<double>(j) / n;
