@@ -37,6 +37,13 @@ Eigen::Matrix<double, 3, 2> tangentBasis(const Eigen::Vector3d& n) {
 
 Eigen::Vector3d vertex(const VectorX& x, Index i) { return x.segment<3>(3 * i); }
 
+// "3, 4, 17": the vertices a surface sample lies between, for messages.
+std::string vertexList(const SurfaceSample& sample) {
+  std::string out = std::to_string(sample.vertices[0]);
+  for (int j = 1; j < sample.count; ++j) out += ", " + std::to_string(sample.vertices[static_cast<std::size_t>(j)]);
+  return out;
+}
+
 // The surface samples' lattice is fine enough for triangles stretched this much beyond their
 // rest shape (sampleSurface).
 constexpr double kStretchAllowance = 1.5;
@@ -127,6 +134,13 @@ std::string ContactModel::surfaceCrossing(const VectorX& x, std::size_t k) const
     for (Index t = 0; t < mesh_->numTriangles(); ++t) {
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
       if (!(isFree(tri[0]) && isFree(tri[1]) && isFree(tri[2]))) continue;  // the pin wins
+      // Every point of the triangle is within its longest side of a vertex: far from the
+      // obstacle's bounding sphere, no exact distance is needed.
+      const Eigen::Vector3d& w0 = vertex(x, tri[0]);
+      const double side = std::sqrt(std::max({(vertex(x, tri[1]) - w0).squaredNorm(),
+                                              (vertex(x, tri[2]) - vertex(x, tri[1])).squaredNorm(),
+                                              (w0 - vertex(x, tri[2])).squaredNorm()}));
+      if (roundLowerBound(k, w0) > side) continue;
       const Eigen::Vector3d a = inverse * vertex(x, tri[0]), b = inverse * vertex(x, tri[1]), c = inverse * vertex(x, tri[2]);
       const double d = *triangleShapeDistance(shape, a, b, c);
       if (d > 0.0) continue;
@@ -188,9 +202,7 @@ Status ContactModel::checkSurfaceAtStart(const VectorX& x, const std::vector<Ind
     }
     for (const SurfaceSample& sample : samples_) {
       if (!sampleTakesContact(sample) || obstacles_->distance(k, samplePoint(x, sample), false).distance > 0.0) continue;
-      std::string where = std::to_string(sample.vertices[0]);
-      for (int j = 1; j < sample.count; ++j) where += ", " + std::to_string(sample.vertices[static_cast<std::size_t>(j)]);
-      out = Error{name + ": the cloth between vertices " + where + " starts within " +
+      out = Error{name + ": the cloth between vertices " + vertexList(sample) + " starts within " +
                   std::to_string(1e3 * obstacles_->margin(k)) +
                   " mm of it, the margin by which the barriers grow round obstacles so that no point of a "
                   "triangle enters them (docs/contact.md); move the obstacle or the cloth farther apart"};
@@ -450,9 +462,7 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
       if (!round_[k]) continue;
       const double d = obstacles_->distance(k, samplePoint(x, sample), true).distance;
       if (!(d > 0.0)) {
-        std::string where = std::to_string(sample.vertices[0]);
-        for (int j = 1; j < sample.count; ++j) where += ", " + std::to_string(sample.vertices[static_cast<std::size_t>(j)]);
-        return Error{"a point between vertices " + where + " would be inside obstacle '" + (*obstacles_)[k].name +
+        return Error{"a point between vertices " + vertexList(sample) + " would be inside obstacle '" + (*obstacles_)[k].name +
                      "' (" + std::to_string(d) + " m; the obstacle moves at " + std::to_string(obstacleSpeed(k)) +
                      " m/s): pinched between obstacles, pushed in by a pin, or the obstacle moves "
                      "farther in a substep than the cloth can follow (more substeps may help)"};
