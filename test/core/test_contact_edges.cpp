@@ -176,8 +176,9 @@ TEST(ContactEdges, ClothThroughABallBetweenVerticesIsRefusedAtTheStart) {
   EXPECT_TRUE(buildSimulation(scene).ok());
 }
 
-// Boxes keep vertices out, not the points between them (docs/contact.md, Limits): what the
-// surface reaches into a box is measured after each substep and reported. A 3 x 3 sheet folded
+// What the surface reaches into a box is measured after each substep and reported, and a
+// triangle overlapping a box fails the substep (test_contact_boxes.cpp: the barriers that keep
+// it out). A 3 x 3 sheet folded
 // over the box's edge (x = z = 0.1 m): its first row 2 cm outside the +x face at z = 0.05, its
 // second 2 cm above the top at x = 0.05, its third at x = -0.05. Between the first two rows a
 // point at the fraction t of the way has x = 0.12 - 0.07 t and z = 0.05 + 0.07 t, so its depth
@@ -206,6 +207,10 @@ TEST(ContactEdges, BoxDepthOfASheetFoldedOverAnEdge) {
   contact.finishSubstep(x, x, stats);
   EXPECT_NEAR(stats.boxDepth, 0.015, 1e-12);
   EXPECT_NE(stats.boxDepthWhere.find("in box 'block'"), std::string::npos) << stats.boxDepthWhere;
+  // A triangle reaching into a box fails the substep, naming both (the step is then retried with
+  // smaller substeps or fails; no state with it is accepted).
+  EXPECT_NE(stats.crossing.find("reaches into box 'block'"), std::string::npos) << stats.crossing;
+  EXPECT_EQ(stats.crossing.rfind("triangle ", 0), 0u) << stats.crossing;
   // Unfolded flat on the top (every point 2 cm above it): nothing inside.
   for (Index v = 0; v < 9; ++v) x[3 * v + 2] = 0.12;
   ContactStats flat;
@@ -213,6 +218,7 @@ TEST(ContactEdges, BoxDepthOfASheetFoldedOverAnEdge) {
   contact.prepareSegment(x, VectorX::Zero(27));
   contact.finishSubstep(x, x, flat);
   EXPECT_EQ(flat.boxDepth, 0.0);
+  EXPECT_EQ(flat.crossing, "");
 }
 
 namespace {

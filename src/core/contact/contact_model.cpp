@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "fem_cloth/core/contact/barrier.h"
+#include "fem_cloth/core/contact/box_features.h"
 #include "fem_cloth/core/contact/broad_phase.h"
 #include "fem_cloth/core/contact/ccd.h"
 #include "fem_cloth/core/contact/edge_distance.h"
@@ -84,7 +85,7 @@ void ContactModel::sampleSurface(const Model& model) {
   round_.assign(obstacles_->size(), 0);
   double thinnest = kInf;
   for (std::size_t k = 0; k < obstacles_->size(); ++k) {
-    hasBox_ = hasBox_ || (*obstacles_)[k].shape.type == ShapeType::Box;
+    if ((*obstacles_)[k].shape.type == ShapeType::Box) boxes_.push_back(k);
     if (!obstacles_->hasEdgeDistance(k)) continue;
     round_[k] = 1;
     thinnest = std::min(thinnest, (*obstacles_)[k].shape.radius);
@@ -133,7 +134,7 @@ std::string ContactModel::surfaceCrossing(const VectorX& x, std::size_t k) const
     const Shape& shape = (*obstacles_)[k].shape;
     for (Index t = 0; t < mesh_->numTriangles(); ++t) {
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
-      if (!(isFree(tri[0]) && isFree(tri[1]) && isFree(tri[2]))) continue;  // the pin wins
+      if (!freeTriangle(tri)) continue;  // the pin wins
       // Every point of the triangle is within its longest side of a vertex: far from the
       // obstacle's bounding sphere, no exact distance is needed.
       const Eigen::Vector3d& w0 = vertex(x, tri[0]);
@@ -163,15 +164,9 @@ void ContactModel::measureBoxDepth(const VectorX& x, ContactStats& stats) const 
     const Eigen::Isometry3d& inverse = obstacles_->inverseEnd(k);
     for (Index t = 0; t < mesh_->numTriangles(); ++t) {
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
-      if (!(isFree(tri[0]) && isFree(tri[1]) && isFree(tri[2]))) continue;  // the pin wins
+      if (!freeTriangle(tri)) continue;  // the pin wins
       const Eigen::Vector3d a = inverse * vertex(x, tri[0]), b = inverse * vertex(x, tri[1]), c = inverse * vertex(x, tri[2]);
-      // A triangle with its three vertices beyond the same face's plane has no point inside (a
-      // cloth lying on a table top).
-      const Eigen::Vector3d& h = shape.halfExtents;
-      if (((a.array() > h.array()) && (b.array() > h.array()) && (c.array() > h.array())).any() ||
-          ((a.array() < -h.array()) && (b.array() < -h.array()) && (c.array() < -h.array())).any()) {
-        continue;
-      }
+      if (box::beyondOneFace(shape.halfExtents, a, b, c)) continue;
       for (int i = 0; i <= n; ++i) {
         for (int j = 0; i + j <= n; ++j) {
           const double l0 = static_cast<double>(i) / n, l1 = static_cast<double>(j) / n;
@@ -192,6 +187,14 @@ Status ContactModel::checkSurfaceAtStart(const VectorX& x, const std::vector<Ind
   pinned_ = &fixed;
   obstacles_->beginSubstep(0.0, 0.0);
   Status out = Status::success();
+  for (std::size_t k : boxes_) {
+    if (!(*obstacles_)[k].frame.empty() || !out.ok()) continue;
+    const std::string crossing = boxCrossing(x, k);
+    if (!crossing.empty()) {
+      out = Error{"obstacles[" + std::to_string(k) + "] ('" + (*obstacles_)[k].name + "'): " + crossing +
+                  " at the start; move the obstacle or the cloth"};
+    }
+  }
   for (std::size_t k = 0; k < obstacles_->size() && out.ok(); ++k) {
     if (!round_[k] || !(*obstacles_)[k].frame.empty()) continue;
     const std::string name = "obstacles[" + std::to_string(k) + "] ('" + (*obstacles_)[k].name + "')";
@@ -312,6 +315,7 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
       friction_.push_back(f);
     }
   }
+  if (!boxes_.empty()) addBoxFriction(x0, h, gamma);
   if (settings_.selfCollision && settings_.selfFriction > 0.0) {
     selfCandidates(x0, nullptr);
     auto add = [&](const PrimitiveDistance& pd, std::array<Index, 4> v, double weight,
@@ -346,6 +350,46 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   // The relative displacement of a friction contact is measured from xc.
   frictionOrigin_ = xc;
   vertexTablesFresh_ = false;
+}
+
+void ContactModel::addBoxFriction(const VectorX& x0, double h, double gamma) {
+  // Lagged friction of the box pairs closer than dHat at x0 (the boxes where they start the
+  // substep), as the vertices' (beginSubstep): the cloth's closest point (its weights) slides
+  // against the box's, which moves with the box.
+  boxCandidates(x0, nullptr, false);
+  Eigen::Matrix<double, 3, 4> X;
+  std::array<Index, 3> cloth{};
+  for (const BoxPair& pair : boxPairs_) {
+    const auto k = static_cast<std::size_t>(pair.box);
+    if (!((*obstacles_)[k].friction > 0.0)) continue;
+    ++checks_;
+    const int count = boxPairPoints(x0, pair, X, cloth, false);
+    const PrimitiveDistance pd = pair.edgeEdge ? edgeEdgeDistance(X.col(0), X.col(1), X.col(2), X.col(3))
+                                               : pointTriangleDistance(X.col(0), X.col(1), X.col(2), X.col(3));
+    if (!(pd.squared > 0.0 && pd.squared < sHat_)) continue;
+    const int first = 4 - count;  // the cloth's slots
+    Friction f;
+    f.count = count;
+    Eigen::Vector3d closest = Eigen::Vector3d::Zero();  // the box's point (weights of its slots)
+    for (int i = 0; i < first; ++i) closest += pd.weights[i] * X.col(i);
+    for (int i = 0; i < count; ++i) {
+      f.vertices[static_cast<std::size_t>(i)] = cloth[static_cast<std::size_t>(i)];
+      f.weights[i] = -pd.weights[first + i];  // r = box point - cloth point
+    }
+    const double d = std::sqrt(pd.squared);
+    f.tangent = tangentBasis(pd.r / d);
+    const Eigen::Vector3d moved = obstacles_->poseEnd(k) * (obstacles_->inverseStart(k) * closest);
+    f.offset = (moved - closest) / (h * gamma);
+    // The normal force of the pair's barrier there (mollified for edges).
+    const double mollified =
+        pair.edgeEdge ? mollifier::value(edgeCrossSquared(X.col(0), X.col(1), X.col(2), X.col(3)), boxPairEpsX(pair, X))
+                      : 1.0;
+    f.muLambda = (*obstacles_)[k].friction * boxPairWeight(cloth, count) * mollified *
+                 std::abs(barrier::first(pd.squared, sHat_)) * 2.0 * d;
+    f.obstacle = static_cast<int>(k);
+    f.point = moved;
+    friction_.push_back(f);
+  }
 }
 
 bool ContactModel::obstacleReaches(std::size_t k, const Eigen::Vector3d& p) {
@@ -435,6 +479,7 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
       }
     }
   }
+  if (!boxes_.empty()) markTrianglesBoxesReach(x0);
   for (Index i = 0; i < n; ++i) {
     if (!isFree(i)) continue;
     const std::size_t k = carryingObstacle(vertex(x0, i), &reached_[static_cast<std::size_t>(i) * obstacleCount]);
@@ -468,6 +513,10 @@ Status ContactModel::startingPoint(const VectorX& x0, const VectorX& wanted, Vec
                      "farther in a substep than the cloth can follow (more substeps may help)"};
       }
     }
+  }
+  if (const std::string crossing = boxCrossing(x); !crossing.empty()) {
+    return Error{crossing + " where the obstacles carried the cloth: pinched between obstacles, or the obstacle "
+                 "moves farther in a substep than the cloth can follow (more substeps may help)"};
   }
   if (settings_.selfCollision && x != x0 && prepareSegment(x0, x - x0, false) < 1.0) {
     return Error{"an obstacle's motion in this step would pass the cloth through itself"};
@@ -538,6 +587,7 @@ double ContactModel::prepareSegment(const VectorX& x, const VectorX& dx, bool wi
     for (int v = 0; v < sample.count; ++v) lower(sample.vertices[static_cast<std::size_t>(v)], tj);
     t = std::min(t, tj);
   }
+  if (withObstacles && !boxes_.empty()) t = std::min(t, boxSegment(x, dx, t, perDof));
   if (settings_.selfCollision) t = std::min(t, selfSegment(x, dx, t, perDof));
   return t;
 }
@@ -630,6 +680,7 @@ double ContactModel::evaluateAll(const VectorX& x, VectorX* gradient, SparseHess
   if (part != Part::Friction) {
     if (!addObstacleBarriers(x, a)) return kInf;
     if (!samples_.empty() && !addSampleBarriers(x, a)) return kInf;
+    if (!boxPairs_.empty() && !addBoxPairBarriers(x, a)) return kInf;
     if (settings_.selfCollision && !(addPointTriangleBarriers(x, a) && addEdgeEdgeBarriers(x, a))) {
       return kInf;
     }
@@ -749,21 +800,49 @@ bool ContactModel::pointTriangleBarrier(const VectorX& x, int p, int t, bool wan
                                         bool wantHessian, PairBarrier& out,
                                         double& distance) const {
   const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
-  Vector12 gs;
-  const PrimitiveDistance pd =
-      pointTriangleDistance(vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]),
-                            wantGradient ? &gs : nullptr);
+  Eigen::Matrix<double, 3, 4> X;
+  X << vertex(x, p), vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2]);
+  PrimitiveDistance pd;
+  return pairBarrier(X, false, kappa_ * mass_[p], 0.0, wantGradient, wantHessian, out, distance, pd);
+}
+
+bool ContactModel::pairBarrier(const Eigen::Matrix<double, 3, 4>& X, bool edgeEdge, double w, double epsX,
+                               bool wantGradient, bool wantHessian, PairBarrier& out, double& distance,
+                               PrimitiveDistance& pd) const {
+  Vector12 gs, gc;
+  Matrix12 Hs, Hc;
+  const bool exactHessian = wantHessian && edgeEdge;  // the mollified product rule needs it
+  pd = edgeEdge ? edgeEdgeDistance(X.col(0), X.col(1), X.col(2), X.col(3), wantGradient ? &gs : nullptr,
+                                   exactHessian ? &Hs : nullptr)
+                : pointTriangleDistance(X.col(0), X.col(1), X.col(2), X.col(3), wantGradient ? &gs : nullptr);
   distance = std::sqrt(pd.squared);
   out.active = false;
   if (!(pd.squared > 0.0)) return false;
   if (pd.squared >= sHat_) return true;
   out.active = true;
-  const double w = kappa_ * mass_[p];
-  out.energy = w * barrier::value(pd.squared, sHat_);
+  // Edge-edge: mollified, e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
+  const double c = edgeEdge ? edgeCrossSquared(X.col(0), X.col(1), X.col(2), X.col(3), wantGradient ? &gc : nullptr,
+                                               exactHessian ? &Hc : nullptr)
+                            : 0.0;
+  const double e = edgeEdge ? mollifier::value(c, epsX) : 1.0, bv = barrier::value(pd.squared, sHat_);
+  out.energy = w * e * bv;
   if (!wantGradient) return true;
   const double b1 = barrier::first(pd.squared, sHat_);
-  if (wantHessian) out.hessian = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
-  out.gradient = w * b1 * gs;
+  if (e == 1.0) {
+    if (wantHessian) out.hessian = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
+    // (The two products in the order each pair had before they shared this code: the same bits.)
+    out.gradient = edgeEdge ? Vector12(w * (b1 * gs)) : Vector12(w * b1 * gs);
+    return true;
+  }
+  const double e1 = mollifier::first(c, epsX);
+  const Vector12 gb = b1 * gs, ge = e1 * gc;
+  if (wantHessian) {
+    // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
+    out.hessian = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
+                                  gb * ge.transpose() + ge * gb.transpose() +
+                                  bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
+  }
+  out.gradient = w * (e * gb + bv * ge);
   return true;
 }
 
@@ -791,36 +870,11 @@ bool ContactModel::edgeEdgeBarrier(const VectorX& x, int ia, int ib, bool wantGr
                                    bool wantHessian, PairBarrier& out, double& distance) const {
   const auto& ea = edges_[static_cast<std::size_t>(ia)];
   const auto& eb = edges_[static_cast<std::size_t>(ib)];
-  Vector12 gs, gc;
-  Matrix12 Hs, Hc;
-  const PrimitiveDistance pd =
-      edgeEdgeDistance(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
-                       wantGradient ? &gs : nullptr, wantHessian ? &Hs : nullptr);
-  distance = std::sqrt(pd.squared);
-  out.active = false;
-  if (!(pd.squared > 0.0)) return false;
-  if (pd.squared >= sHat_) return true;
-  out.active = true;
-  // Mollified: e(c) b(s) with c = |ea x eb|^2 fading nearly parallel edges (section 4.3).
-  const double epsX = edgeMollifierThreshold(ia, ib);
-  const double c = edgeCrossSquared(vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]),
-                                    wantGradient ? &gc : nullptr, wantHessian ? &Hc : nullptr);
+  Eigen::Matrix<double, 3, 4> X;
+  X << vertex(x, ea[0]), vertex(x, ea[1]), vertex(x, eb[0]), vertex(x, eb[1]);
   const double w = kappa_ * 0.25 * (mass_[ea[0]] + mass_[ea[1]] + mass_[eb[0]] + mass_[eb[1]]);
-  const double e = mollifier::value(c, epsX), bv = barrier::value(pd.squared, sHat_);
-  out.energy = w * e * bv;
-  if (!wantGradient) return true;
-  const double b1 = barrier::first(pd.squared, sHat_), e1 = mollifier::first(c, epsX);
-  const Vector12 gb = b1 * gs, ge = e1 * gc;
-  if (wantHessian && e == 1.0) {
-    out.hessian = w * barrierGaussNewtonHessian(pd, b1, barrier::second(pd.squared, sHat_));
-  } else if (wantHessian) {
-    // Nearly parallel edges (rare): the product rule, projected by eigen-decomposition.
-    out.hessian = projectPsd(w * (e * (barrier::second(pd.squared, sHat_) * gs * gs.transpose() + b1 * Hs) +
-                                  gb * ge.transpose() + ge * gb.transpose() +
-                                  bv * (mollifier::second(c, epsX) * gc * gc.transpose() + e1 * Hc)));
-  }
-  out.gradient = w * (e * gb + bv * ge);
-  return true;
+  PrimitiveDistance pd;
+  return pairBarrier(X, true, w, edgeMollifierThreshold(ia, ib), wantGradient, wantHessian, out, distance, pd);
 }
 
 void ContactModel::addFriction(const VectorX& x, Assembly& a) const {
@@ -909,6 +963,13 @@ void ContactModel::prepareVertexAccess() {
     frictionStencils_.push_back({f.vertices.data(), f.vertices.data() + f.count});
   }
   frictionOfVertex_.assign(mesh.numVertices(), frictionStencils_);
+  boxPairCloth_.resize(boxPairs_.size());
+  boxPairStencils_.clear();
+  for (std::size_t j = 0; j < boxPairs_.size(); ++j) {
+    const int count = boxPairVertices(boxPairs_[j], boxPairCloth_[j]);
+    boxPairStencils_.push_back({boxPairCloth_[j].data(), boxPairCloth_[j].data() + count});
+  }
+  boxPairsOfVertex_.assign(mesh.numVertices(), boxPairStencils_);
   vertexTablesFresh_ = true;
 }
 
@@ -945,6 +1006,19 @@ bool ContactModel::addVertexBarriers(const VectorX& x, Index v, VertexDerivative
       const double w = s.weights[slot];
       out.force -= w * b.gradient;
       out.hessian += (w * w * b.weight * b.along) * (sd.normal * sd.normal.transpose());
+    }
+  }
+  if (!boxPairs_.empty()) {
+    PairBarrier b;
+    double distance = 0.0;
+    Eigen::Vector3d point;
+    for (const VertexIncidence::Use& use : boxPairsOfVertex_.uses(v)) {
+      const BoxPair& pair = boxPairs_[static_cast<std::size_t>(use.element)];
+      if (!boxPairBarrier(x, pair, true, true, b, distance, point)) return false;
+      if (!b.active) continue;
+      const int slot = use.slot + (pair.edgeEdge ? 2 : 1);  // the box's point(s) come first
+      out.force -= b.gradient.segment<3>(3 * slot);
+      out.hessian += b.hessian.block<3, 3>(3 * slot, 3 * slot);
     }
   }
   if (settings_.selfCollision) {
@@ -996,7 +1070,8 @@ void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactSta
   stats.dissipated += here.dissipated;
   stats.stored = here.stored;
   if (stats.crossing.empty()) stats.crossing = surfaceCrossing(x);
-  if (hasBox_) measureBoxDepth(x, stats);
+  if (stats.crossing.empty()) stats.crossing = boxCrossing(x);
+  if (!boxes_.empty()) measureBoxDepth(x, stats);
   pinned_ = nullptr;
 }
 
@@ -1004,6 +1079,7 @@ double ContactModel::storedEnergy(const VectorX& x, const std::vector<char>& pin
   pinned_ = &pinned;
   obstacles_->beginSubstep(0.0, 0.0);
   if (settings_.selfCollision) selfCandidates(x, nullptr);
+  if (!boxes_.empty()) boxCandidates(x, nullptr);
   const double energy = evaluateAll(x, nullptr, nullptr, nullptr, 1.0, nullptr, nullptr, Part::Barriers);
   pinned_ = nullptr;
   return energy;

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "fem_cloth/core/contact/obstacle_set.h"
+#include "fem_cloth/core/contact/primitive_distance.h"
 #include "fem_cloth/core/contact/surface_samples.h"
 #include "fem_cloth/core/expected.h"
 #include "fem_cloth/core/model.h"
@@ -161,6 +162,12 @@ class ContactModel {
                             PairBarrier& out, double& distance) const;
   bool edgeEdgeBarrier(const VectorX& x, int ia, int ib, bool wantGradient, bool wantHessian,
                        PairBarrier& out, double& distance) const;
+  /// The barrier w b(s) of the point-triangle pair (X's columns p, t0, t1, t2) or, if edgeEdge,
+  /// the edge-edge pair (a0, a1, b0, b1) mollified with threshold epsX, its gradient and PSD
+  /// Hessian over the 12 coordinates; `pd` gets the distance's closest points.
+  bool pairBarrier(const Eigen::Matrix<double, 3, 4>& X, bool edgeEdge, double w, double epsX,
+                   bool wantGradient, bool wantHessian, PairBarrier& out, double& distance,
+                   PrimitiveDistance& pd) const;
   /// The moving obstacle that carries a vertex at p (at the start of the substep) in the starting
   /// point: of those that come within dHat of it over the substep, the one whose motion leaves it
   /// farthest from every obstacle at the end; size() if none does, or if staying is farther.
@@ -199,8 +206,9 @@ class ContactModel {
   /// The first triangle that reaches into a round obstacle at x (the obstacles where they end
   /// the substep), as a message naming both; empty if none does.
   std::string surfaceCrossing(const VectorX& x) const;
-  /// The deepest point of a grid on each triangle with a free vertex inside a box at x (boxes
-  /// keep vertices out, not the points between them), into stats.boxDepth and boxDepthWhere.
+  /// The deepest point of a grid on each triangle with a free vertex inside a box at x (a lower
+  /// bound; 0 after an accepted substep, whose boxCrossing found no overlap), into
+  /// stats.boxDepth and boxDepthWhere.
   void measureBoxDepth(const VectorX& x, ContactStats& stats) const;
   /// The same for obstacle k alone.
   std::string surfaceCrossing(const VectorX& x, std::size_t k) const;
@@ -215,6 +223,8 @@ class ContactModel {
   bool addVertexBarriers(const VectorX& x, Index v, VertexDerivatives& out) const;
   void addVertexFriction(const VectorX& x, Index v, VertexDerivatives& out) const;
   bool isFree(Index vertex) const { return pinned_ == nullptr || (*pinned_)[3 * vertex] == 0; }
+  /// A triangle takes obstacle contact beyond its vertices' only when all three are free.
+  bool freeTriangle(const Triangle& t) const { return isFree(t[0]) && isFree(t[1]) && isFree(t[2]); }
   void addBlock(Index a, Index b, const Eigen::Matrix3d& block, SparseHessian* hessian,
                 std::vector<Eigen::Triplet<double>>* outside) const;
   double evaluateAll(const VectorX& x, VectorX* gradient, SparseHessian* hessian,
@@ -239,6 +249,7 @@ class ContactModel {
   bool addSampleBarriers(const VectorX& x, Assembly& a);
   bool addPointTriangleBarriers(const VectorX& x, Assembly& a);
   bool addEdgeEdgeBarriers(const VectorX& x, Assembly& a);
+  bool addBoxPairBarriers(const VectorX& x, Assembly& a);
   void addFriction(const VectorX& x, Assembly& a) const;
   /// Adds a 4-vertex pair's gradient and (PSD) Hessian, times a.scale.
   void scatter(const std::array<Index, 4>& v, const Eigen::Matrix<double, 12, 1>& g,
@@ -248,6 +259,58 @@ class ContactModel {
   /// their CCD finds collision-free (per DOF as prepareSegment's).
   double selfSegment(const VectorX& x, const VectorX& dx, double tMax, VectorX* perDof);
   double edgeMollifierThreshold(Index ea, Index eb) const;
+
+  // A stencil of vertices stored elsewhere (for VertexIncidence).
+  struct Span {
+    const Index* first;
+    const Index* last;
+    const Index* begin() const { return first; }
+    const Index* end() const { return last; }
+  };
+
+  // Boxes (box_features.h): each corner against the cloth's triangles and each edge against the
+  // cloth's edges, with IPC's point-triangle and edge-edge barriers, the box side where the box
+  // ends the substep. Triangles and edges with a pinned vertex take none (the pin wins). The
+  // pairs are those within reach of the last prepareSegment().
+  struct BoxPair {
+    int box;      // obstacle index
+    int feature;  // corner (corner-triangle) or edge (edge-edge) of the box
+    int cloth;    // triangle or edge of the cloth
+    bool edgeEdge;
+  };
+  /// The pair's cloth vertices (3 or 2; the count returned).
+  int boxPairVertices(const BoxPair& pair, std::array<Index, 3>& cloth) const;
+  /// The pair's 4 points (the box's first, then its cloth vertices, which `cloth` gets).
+  int boxPairPoints(const VectorX& x, const BoxPair& pair, Eigen::Matrix<double, 3, 4>& X,
+                    std::array<Index, 3>& cloth, bool atEnd = true) const;
+  /// The pair's barrier weight kappa m (m the mean mass of its cloth vertices: constant, so the
+  /// energy stays smooth) and, for edges, its mollifier threshold.
+  double boxPairWeight(const std::array<Index, 3>& cloth, int count) const;
+  double boxPairEpsX(const BoxPair& pair, const Eigen::Matrix<double, 3, 4>& X) const;
+  /// beginSubstep's lagged friction of the box pairs.
+  void addBoxFriction(const VectorX& x0, double h, double gamma);
+  bool boxPairBarrier(const VectorX& x, const BoxPair& pair, bool wantGradient, bool wantHessian,
+                      PairBarrier& out, double& distance, Eigen::Vector3d& point) const;
+  /// The pairs whose box feature and cloth primitive (over x + t dx, t in [0, 1]; dx may be
+  /// null) come within dHat of each other.
+  void boxCandidates(const VectorX& x, const VectorX* dx, bool atEnd = true);
+  /// prepareSegment's box part: the largest t <= tMax that CCD of the pairs allows (per DOF too).
+  double boxSegment(const VectorX& x, const VectorX& dx, double tMax, VectorX* perDof);
+  /// startingPoint's box part: marks in reached_ (2) the vertices of every triangle that a moving
+  /// box comes within dHat of over the substep, the cloth held at x0.
+  void markTrianglesBoxesReach(const VectorX& x0);
+  /// The first triangle that overlaps a box at x (where it ends the substep), as a message; empty
+  /// if none does.
+  std::string boxCrossing(const VectorX& x) const;
+  /// The same for box k alone, without its speed.
+  std::string boxCrossing(const VectorX& x, std::size_t k) const;
+  /// The world position of box k's corner i where the box ends (or starts) the substep.
+  Eigen::Vector3d boxCorner(std::size_t k, int i, bool atEnd = true) const;
+  std::vector<std::size_t> boxes_;  // the obstacles that are boxes
+  std::vector<BoxPair> boxPairs_;
+  std::vector<std::array<Index, 3>> boxPairCloth_;  // per pair: its cloth vertices (3 or 2)
+  std::vector<Span> boxPairStencils_;
+  VertexIncidence boxPairsOfVertex_;
 
   std::shared_ptr<const Mesh> mesh_;
   VectorX mass_;  // per vertex (kg)
@@ -269,7 +332,6 @@ class ContactModel {
   std::vector<SurfaceSample> samples_;
   std::vector<std::vector<std::pair<int, int>>> samplesOfVertex_;
   std::vector<char> round_;  // per obstacle: a sphere or capsule
-  bool hasBox_ = false;      // a box among the obstacles (measureBoxDepth)
   std::vector<char> reached_;  // startingPoint: vertex x obstacle, reached over the substep
   double substepLength_ = 0.0;  // s
 
@@ -284,12 +346,6 @@ class ContactModel {
   bool vertexTablesFresh_ = false;
   VertexIncidence pairsOfVertex_, frictionOfVertex_;
   std::vector<std::array<Index, 4>> pairStencils_;
-  struct Span {
-    const Index* first;
-    const Index* last;
-    const Index* begin() const { return first; }
-    const Index* end() const { return last; }
-  };
   std::vector<Span> frictionStencils_;
   double frictionEps_ = 0.0;  // m: eps_v / gamma
   VectorX frictionOrigin_;    // xc: relative displacements are measured from it
