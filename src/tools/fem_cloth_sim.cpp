@@ -28,6 +28,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "fem_cloth/core/integrators/implicit.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/threads.h"
@@ -117,14 +118,20 @@ std::string errorLine(const DisplacementError& e) {
   return line.str();
 }
 
-/// Where the Newton solves' time went (NewtonTimes): the profile of an implicit run.
-std::string newtonTimeLine(const NewtonTimes& t, std::uint64_t iterations) {
+/// Where the implicit solves' time went (NewtonTimes), labelled by the solver the scene chose
+/// (integrator.solver): Newton's alone; or L-BFGS's with the Newton iterations that check its
+/// solutions and finish its fallbacks, whose times the step reports sum with its own.
+std::string solverTimeLine(const Totals& totals, bool lbfgs) {
+  const NewtonTimes& t = totals.newtonTimes;
+  const std::uint64_t iterations = totals.newtonIterations + totals.quasiNewtonIterations;
   const double total = t.total();
   if (iterations == 0 || !(total > 0.0)) return "";
   auto share = [&](double part) { return std::lround(100.0 * part / total); };
   std::ostringstream line;
-  line << "Newton time:  " << total << " s, " << 1e3 * total / static_cast<double>(iterations)
-       << " ms per iteration: assembly " << share(t.assembly) << " %, factorisation "
+  line << (lbfgs ? "L-BFGS time:  " : "Newton time:  ") << total << " s"
+       << (lbfgs ? " (Newton's check and fallbacks included)" : "") << ", "
+       << 1e3 * total / static_cast<double>(iterations) << " ms per iteration"
+       << (lbfgs ? " of either" : "") << ": assembly " << share(t.assembly) << " %, factorisation "
        << share(t.factorisation) << " %, solve " << share(t.solve) << " %, step bound "
        << share(t.bound) << " %, line search " << share(t.search) << " %\n";
   return line.str();
@@ -487,8 +494,10 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
     summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
             << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
   } else {
+    // The implicit steppers (backward_euler, bdf2): their solver.
+    const bool lbfgs = solvesByLbfgs(simulator.integrator());
     summary << "solver:       ";
-    if (totals.quasiNewtonIterations > 0) {
+    if (lbfgs) {
       summary << totals.quasiNewtonIterations << " L-BFGS iterations (" << perStep(totals.quasiNewtonIterations)
               << " per step), " << totals.solverFallbacks << " substeps fell back to Newton, ";
     }
@@ -497,7 +506,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
             << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks << " rollbacks";
     if (totals.tightened > 0) summary << " (" << totals.tightened << " re-solved 100x tighter)";
     summary << ", " << totals.failures << " failures\n";
-    summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations + totals.quasiNewtonIterations);
+    summary << solverTimeLine(totals, lbfgs);
   }
   summary << errorLine(totals.worstError);
   if (totals.boxDepth > 0.0) summary << "surface:      " << boxDepthText(totals) << '\n';

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <thread>
 #include <fstream>
+#include <regex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -67,6 +68,39 @@ void expectUsageError(const std::vector<std::string>& args,
 }
 
 }  // namespace
+
+// The solve time line is labelled by the solver the scene chose (integrator.solver): "Newton
+// time:" for newton, "L-BFGS time:" for lbfgs (Newton's check of its solutions included), never
+// the other; its time per iteration is its total over the iterations of the solvers that spent
+// it, as the solver line counts them.
+TEST(FemClothSim, SolveTimeIsLabelledByTheSolverUsed) {
+  for (const std::string solver : {"newton", "lbfgs"}) {
+    const Result r = runSim({"--scene", kConfigDir + "/hanging_cloth.yaml", "--integrator", "backward_euler",
+                             "--set", "mesh.rows=9", "--set", "mesh.cols=9", "--set", "integrator.solver=" + solver,
+                             "--duration", "0.05", "--no-output", "--quiet"});
+    ASSERT_EQ(r.status, 0) << solver << ": " << r.err;
+    const bool lbfgs = solver == "lbfgs";
+    EXPECT_EQ(r.out.find(lbfgs ? "Newton time:" : "L-BFGS time:"), std::string::npos) << r.out;
+    std::smatch m;
+    const std::string label = lbfgs ? "L-BFGS time:" : "Newton time:";
+    ASSERT_TRUE(std::regex_search(r.out, m, std::regex(label + R"(\s+([0-9.e+-]+) s[^,]*, ([0-9.e+-]+) ms per iteration)")))
+        << solver << ":\n" << r.out;
+    const double seconds = std::stod(m[1]), ms = std::stod(m[2]);
+    double iterations = 0.0;
+    if (lbfgs) {
+      ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(solver:\s+(\d+) L-BFGS iterations .*, (\d+) Newton iterations)")))
+          << r.out;
+      EXPECT_GT(std::stod(m[1]), 0.0) << r.out;
+      iterations = std::stod(m[1]) + std::stod(m[2]);
+    } else {
+      ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(solver:\s+(\d+) Newton iterations)"))) << r.out;
+      iterations = std::stod(m[1]);
+    }
+    ASSERT_GT(iterations, 0.0) << r.out;
+    // Both printed to 4 significant digits.
+    EXPECT_NEAR(ms, 1e3 * seconds / iterations, 2e-3 * ms) << solver << ":\n" << r.out;
+  }
+}
 
 // Every shipped scene with every integrator for a few steps: exit 0, every step taken, and a
 // summary naming the integrator; nothing on stderr but warnings. Or, for XPBD on the stiff
