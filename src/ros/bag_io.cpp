@@ -120,10 +120,25 @@ class RunReader {
  public:
   RunReader(RecordedRun& run, const RunTopics& topics) : run_(run), topics_(topics) {}
 
+  /// Adds the next message in bag order; a message that does not deserialise (a damaged or cut
+  /// one) is an error naming it: its place in the bag, its topic and its bag time.
   Status add(const rosbag::MessageInstance& m) {
+    const std::string what = "message " + std::to_string(++count_) + " (" + printableText(m.getTopic()) +
+                             ", bag time " + rosTimeText(m.getTime()) + " s)";
+    try {
+      return addMessage(m, what);
+    } catch (const ros::Exception& e) {
+      // ros::serialization's Buffer Overrun; rosbag's and lz4's errors on its record or chunk.
+      return Error{what + " cannot be read (truncated or damaged): " + e.what()};
+    } catch (const std::bad_alloc& e) {
+      // A garbled length.
+      return Error{what + " cannot be read (truncated or damaged): " + e.what()};
+    }
+  }
+
+ private:
+  Status addMessage(const rosbag::MessageInstance& m, const std::string& what) {
     const std::string& topic = m.getTopic();
-    const std::string what = "message " + std::to_string(++count_) + " (" + printableText(topic) + ", bag time " +
-                             rosTimeText(m.getTime()) + " s)";
     FEM_CLOTH_CHECK(checkStamp(m.getTime(), run_.begin, what));
     if (topic == topics_.scene) {
       if (auto msg = m.instantiate<std_msgs::String>()) run_.sceneYaml = msg->data;
@@ -159,6 +174,7 @@ class RunReader {
     return Status::success();
   }
 
+ public:
   /// The commands to replay: the applied ones when the bag has them (exact), else those sent.
   void finish() {
     bool anyApplied = false, anySent = false;
@@ -344,8 +360,7 @@ Expected<RecordedRun> readRun(const std::string& path, const std::string& node) 
     }
     reader.finish();
   } catch (const std::exception& e) {
-    // rosbag's errors, a message that does not deserialise (ros::serialization), a garbled
-    // length (bad_alloc), a stamp tf's time arithmetic cannot take.
+    // rosbag's errors on the index, a stamp tf's time arithmetic cannot take.
     return Error{"bag '" + path + "' is truncated or damaged: " + e.what()};
   }
   return run;

@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 
+#include "fem_cloth/core/integrators/implicit.h"
 #include "fem_cloth/io/output_file.h"
 #include "fem_cloth/io/scene_yaml.h"
 #include "fem_cloth/ros/simulation_driver.h"
@@ -477,6 +478,7 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
   SimulationDriver driver(std::move(simulation).value(), settings, run ? run->tf.get() : nullptr, *doc);
   driver.setTimeline(*timeline);
   report.integrator = driver.simulator().integrator().name();
+  report.lbfgs = solvesByLbfgs(driver.simulator().integrator());
 
   auto submitDue = [&]() {
     replay.submitDue(driver, [&](const Command& c, const Status& s) {
@@ -529,11 +531,13 @@ Expected<BagRunReport> runToBag(const std::string& inBag, const std::string& out
     for (std::string& w : driver.takeWarnings()) report.warnings.push_back(std::move(w));
     writeApplied(driver, topics, out);
     if (!r.ok) {
+      report.stepTotals.addFailure(r);
       // No bag: the writer removes its temporary file.
       report.failure = "the simulation failed at step " + std::to_string(k + 1) + ": " + r.error;
       break;
     }
     ++report.steps;
+    report.stepTotals.addStep(r);
     FEM_CLOTH_CHECK(compare());
     if (wanted(driver.stepIndex())) {
       record(r, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());

@@ -509,6 +509,15 @@ class WorkPrecisionStudy {
   std::vector<WorkPrecisionRow> rows_;
 };
 
+// The integrators the work-precision study runs (--integrators), in the registry's order.
+std::vector<std::string> studyIntegrators(const Options& opt) {
+  std::vector<std::string> integrators;
+  for (const std::string& name : integratorNames()) {
+    if (selected(opt.integrators, name)) integrators.push_back(name);
+  }
+  return integrators;
+}
+
 int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
   if (!opt.recordingError.empty()) {
     std::cerr << "fem_cloth_report: " << opt.recordingError << '\n';
@@ -519,10 +528,7 @@ int workPrecision(const Options& opt, std::ostream& summary, bool& nonFinite) {
     std::cerr << "fem_cloth_report: " << scenes.error() << '\n';
     return 2;
   }
-  std::vector<std::string> integrators;
-  for (const std::string& name : integratorNames()) {
-    if (selected(opt.integrators, name)) integrators.push_back(name);
-  }
+  const std::vector<std::string> integrators = studyIntegrators(opt);
   std::vector<AccuracyScene> chosen;
   for (AccuracyScene& s : *scenes) {
     if (opt.duration > 0.0) s.duration = opt.duration;
@@ -799,6 +805,37 @@ int stability(const Options& opt, std::ostream& summary, bool& nonFinite) {
   return 0;
 }
 
+// What is wrong with --set for the work-precision study, or "". The overrides are applied as
+// fem_cloth_sim applies --set (applySceneOverrides: the key must exist, and an integrator key must
+// be read by the integrator), once for every integrator of the study: a key one of them does not
+// read is refused with fem_cloth_sim's message, naming that integrator. And a key the study sets
+// itself in a run, after --set (its variant's keys: integrator.name and the setting swept;
+// integrator.dt; duration), would be ignored there: refused, naming the run.
+std::string checkOverrides(const Options& opt) {
+  if (opt.overrides.empty() || opt.study == "stability") return "";
+  const std::vector<std::string> integrators = studyIntegrators(opt);
+  for (const std::string& name : integrators) {
+    YAML::Node document(YAML::NodeType::Map);
+    std::vector<std::string> overrides = opt.overrides;
+    overrides.push_back("integrator.name=" + name);
+    if (Status s = applySceneOverrides(document, overrides); !s) return s.error();
+  }
+  auto key = [](const std::string& o) { return o.substr(0, o.find('=')); };
+  for (const Variant& v : workPrecisionVariants(integrators, opt.small)) {
+    std::vector<std::string> own = v.overrides;
+    own.insert(own.end(), {"integrator.dt=", "duration="});
+    for (const std::string& o : opt.overrides) {
+      for (const std::string& k : own) {
+        if (key(o) != key(k)) continue;
+        return "--set " + key(o) + ": the study sets it itself in its run '" + v.label + "' (integrator.name, "
+               "integrator.dt and duration in every run: choose them with --integrators and --duration), "
+               "so the value given would be ignored";
+      }
+    }
+  }
+  return "";
+}
+
 // What is wrong with the options' values (one line naming the option), or "": checked before any
 // work, so that a value that cannot work is not refused only after the studies before it ran.
 std::string checkOptionValues(const CLI::App& app, const Options& opt) {
@@ -836,6 +873,7 @@ std::string checkOptionValues(const CLI::App& app, const Options& opt) {
   if (std::error_code ec; !opt.fromCellResults.empty() && !std::filesystem::is_directory(opt.fromCellResults, ec)) {
     return "--from-cell-results: there is no folder '" + opt.fromCellResults + "'";
   }
+  if (const std::string problem = checkOverrides(opt); !problem.empty()) return problem;
   // The runner's outputs, before its cells run (a slice of cells takes minutes).
   for (const auto& [option, path] : {std::pair{"--list-cells", &opt.listCells}, std::pair{"--cell-results", &opt.cellResults}}) {
     if (Status s = path->empty() ? Status::success() : checkOutputPath(*path); !s) return std::string(option) + ": " + s.error();
@@ -866,7 +904,10 @@ std::optional<int> parseCommandLine(int argc, char** argv, Options& opt) {
   app.add_option("--reference-resolution", opt.referenceResolution,
                  "reference step as a fraction of the scene's CFL bound 2/omega_max (default 0.25)");
   app.add_option("--duration", opt.duration, "work precision: simulated time (s) of every scene");
-  app.add_option("--set", opt.overrides, "work precision: key.path=value on every scene (repeatable)");
+  app.add_option("--set", opt.overrides, "work precision: key.path=value on every scene (repeatable); an "
+                 "integrator.KEY must be read by every integrator of the study (--integrators), as "
+                 "fem_cloth_sim --set checks, and not be one the study sets in its runs (integrator.name, "
+                 "integrator.dt, duration, the setting it sweeps)");
   app.add_option("--list-cells", opt.listCells,
                  "stability: write the selection's cells (index, case, material, stiffness, "
                  "integrator, dt, weight) to this JSON file and stop");

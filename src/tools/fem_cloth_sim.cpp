@@ -28,6 +28,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "fem_cloth/core/integrators/implicit.h"
+#include "fem_cloth/core/integrators/step_totals.h"
 #include "fem_cloth/core/membrane.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/threads.h"
@@ -62,48 +64,10 @@ struct Options {
 // Every message is one line on stderr, whatever names from the inputs (frames, topics) it quotes.
 std::string oneLine(const std::string& text) { return printableText(text, 2000); }
 
-struct Totals {
-  std::uint64_t steps = 0;
-  std::uint64_t newtonIterations = 0;
-  std::uint64_t quasiNewtonIterations = 0;  // integrator.solver: lbfgs
-  std::uint64_t solverFallbacks = 0;        // of its substeps, the ones Newton finished
-  std::uint64_t localIterations = 0;  // XPBD sweeps, projective dynamics iterations
-  std::uint64_t backtracks = 0;
-  std::uint64_t rollbacks = 0;
-  std::uint64_t tightened = 0;  // of the rollbacks: re-solved 100x tighter (Simulator::step)
-  std::uint64_t substeps = 0;
-  std::uint64_t failures = 0;
-  double maxResidual = 0.0;
-  DisplacementError worstError;  // acceptance test (a) in displacement (implicit steppers)
-  NewtonTimes newtonTimes;
+// The steps' totals, and what the observer saw after each step.
+struct Totals : StepTotals {
   double minAreaRatio = std::numeric_limits<double>::infinity();
   double maxStretch = -std::numeric_limits<double>::infinity();
-  // The deepest the cloth's surface reached into a box between its vertices (StepReport), where,
-  // and in which step.
-  double boxDepth = 0.0;
-  std::string boxDepthWhere;
-  std::uint64_t boxDepthStep = 0;
-
-  /// Counts an accepted step.
-  void addStep(const StepReport& r) {
-    ++steps;
-    if (r.boxDepth > boxDepth) {
-      boxDepth = r.boxDepth;
-      boxDepthWhere = r.boxDepthWhere;
-      boxDepthStep = steps;
-    }
-    newtonIterations += static_cast<std::uint64_t>(r.newtonIterations);
-    quasiNewtonIterations += static_cast<std::uint64_t>(r.quasiNewtonIterations);
-    solverFallbacks += static_cast<std::uint64_t>(r.solverFallbacks);
-    localIterations += static_cast<std::uint64_t>(r.iterations);
-    backtracks += static_cast<std::uint64_t>(r.lineSearchBacktracks);
-    newtonTimes += r.newtonTimes;
-    rollbacks += static_cast<std::uint64_t>(r.rollbacks);
-    tightened += static_cast<std::uint64_t>(r.tightened);
-    substeps += static_cast<std::uint64_t>(r.substeps);
-    maxResidual = std::max(maxResidual, r.residual);
-    worstError.merge(r.displacement);
-  }
 };
 
 /// The implicit steppers' error line: the worst displacement error of the accepted steps beside
@@ -117,14 +81,20 @@ std::string errorLine(const DisplacementError& e) {
   return line.str();
 }
 
-/// Where the Newton solves' time went (NewtonTimes): the profile of an implicit run.
-std::string newtonTimeLine(const NewtonTimes& t, std::uint64_t iterations) {
+/// Where the implicit solves' time went (NewtonTimes), labelled by the solver the scene chose
+/// (integrator.solver): Newton's alone; or L-BFGS's with the Newton iterations that check its
+/// solutions and finish its fallbacks, whose times the step reports sum with its own.
+std::string solverTimeLine(const StepTotals& totals, bool lbfgs) {
+  const NewtonTimes& t = totals.newtonTimes;
+  const std::uint64_t iterations = totals.newtonIterations + totals.quasiNewtonIterations;
   const double total = t.total();
   if (iterations == 0 || !(total > 0.0)) return "";
   auto share = [&](double part) { return std::lround(100.0 * part / total); };
   std::ostringstream line;
-  line << "Newton time:  " << total << " s, " << 1e3 * total / static_cast<double>(iterations)
-       << " ms per iteration: assembly " << share(t.assembly) << " %, factorisation "
+  line << (lbfgs ? "L-BFGS time:  " : "Newton time:  ") << total << " s"
+       << (lbfgs ? " (Newton's check and fallbacks included)" : "") << ", "
+       << 1e3 * total / static_cast<double>(iterations) << " ms per iteration"
+       << (lbfgs ? " of either" : "") << ": assembly " << share(t.assembly) << " %, factorisation "
        << share(t.factorisation) << " %, solve " << share(t.solve) << " %, step bound "
        << share(t.bound) << " %, line search " << share(t.search) << " %\n";
   return line.str();
@@ -227,7 +197,7 @@ const char* runStatus(const std::string& failure, const EnergyReport& e, const B
 
 // The summary's line, and the warning, when the cloth's surface reached into a box between its
 // vertices (boxes keep vertices out, not the points between them: docs/contact.md, Limits).
-std::string boxDepthText(const Totals& t) {
+std::string boxDepthText(const StepTotals& t) {
   std::ostringstream text;
   text << std::setprecision(3) << "the cloth's surface reached " << 1e3 * t.boxDepth << " mm into " << t.boxDepthWhere
        << " between its vertices (step " << t.boxDepthStep
@@ -313,6 +283,50 @@ int checkScene(const Options& opt, const std::vector<std::string>& overrides) {
   return 0;
 }
 
+// The summaries' lines on the steps (StepTotals) of a run with `integrator`: its solver's work, for
+// the implicit steppers where their solves' time went (by `lbfgs`, the solver chosen) and their
+// worst error; how deep the cloth's surface reached into a box, if it did. A scene run and a run
+// into a bag print the same.
+std::string solverLines(const StepTotals& totals, const std::string& integrator, bool lbfgs) {
+  std::ostringstream lines;
+  lines << std::setprecision(4);
+  auto perStep = [&](std::uint64_t count) {
+    return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
+  };
+  if (integrator == "xpbd" || integrator == "projective_dynamics") {
+    lines << "solver:       " << totals.localIterations << " "
+          << (integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
+          << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
+          << " substeps, " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else if (integrator == "symplectic_euler") {
+    lines << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
+          << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
+  } else {
+    // The implicit steppers (backward_euler, bdf2): their solver.
+    lines << "solver:       ";
+    if (lbfgs) {
+      lines << totals.quasiNewtonIterations << " L-BFGS iterations (" << perStep(totals.quasiNewtonIterations)
+            << " per step), " << totals.solverFallbacks << " substeps fell back to Newton, ";
+    }
+    lines << totals.newtonIterations << " Newton iterations ("
+          << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
+          << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks << " rollbacks";
+    if (totals.tightened > 0) lines << " (" << totals.tightened << " re-solved 100x tighter)";
+    lines << ", " << totals.failures << " failures\n";
+    lines << solverTimeLine(totals, lbfgs);
+  }
+  lines << errorLine(totals.worstError);
+  if (totals.boxDepth > 0.0) lines << "surface:      " << boxDepthText(totals) << '\n';
+  return lines.str();
+}
+
+// The worst displacement error of the accepted steps (m; null when not measured).
+Json displacementErrorJson(const DisplacementError& e) {
+  if (!e.measured()) return nullptr;
+  return Json{{"relative", e.relative}, {"error", e.error}, {"truncation", e.truncation},
+              {"tolerance", e.tolerance}, {"vertex", e.vertex}, {"largest", e.largest}};
+}
+
 // Re-simulation of a recorded run, or a scene, into a bag.
 int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   BagRunOptions options;
@@ -342,8 +356,8 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
                                   : "as sent: applied at the step after they were recorded")
               << "), " << r.rejected << " rejected\n";
   }
-  std::cout << "steps:        " << r.steps << ", simulated " << r.simulated << " s in " << r.wall
-            << " s wall (real-time factor " << r.simulated / std::max(r.wall, 1e-9) << ")\n";
+  std::cout << "steps:        " << r.steps << " (" << r.stepTotals.substeps << " substeps), simulated " << r.simulated
+            << " s in " << r.wall << " s wall (real-time factor " << r.simulated / std::max(r.wall, 1e-9) << ")\n";
   if (r.compared > 0) {
     std::cout << "reproduced:   " << r.identical << " of " << r.compared
               << " recorded states bit for bit";
@@ -358,9 +372,11 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
   std::cout << workLine(r.energy);
   const BalanceJudgement& balance = r.balance;
   std::cout << balanceLine(r.energy, balance);
+  std::cout << solverLines(r.stepTotals, r.integrator, r.lbfgs);
   std::cout << "digest:       " << r.finalHash << " (state hash of the final state)\n";
   warnAboutBalance(balance);
-  const Json summary{{"status", runStatus(r.failure, r.energy, balance)},
+  if (r.stepTotals.boxDepth > 0.0) std::cerr << "fem_cloth_sim: warning: " << oneLine(boxDepthText(r.stepTotals)) << '\n';
+  const Json summary{{"status", runStatus(r.failure, r.energy, balance, r.stepTotals.boxDepth > 0.0)},
                      {"error", r.failure},
                      {"scene", r.scene},
                      {"integrator", r.integrator},
@@ -370,6 +386,9 @@ int runBag(const Options& opt, const std::vector<std::string>& overrides) {
                      {"energy", energyJson(r.energy)},
                      {"balance", balanceJson(r.energy, balance)},
                      {"stretch", {{"mean", r.stretch.mean}, {"max", r.stretch.max}}},
+                     {"max_residual", r.stepTotals.maxResidual},
+                     {"displacement_error", displacementErrorJson(r.stepTotals.worstError)},
+                     {"box_depth", r.stepTotals.boxDepth},
                      {"state_hash", r.finalHash},
                      {"outputs", r.failure.empty() && !opt.out.empty() ? Json::array({opt.out}) : Json::array()}};
   if (!writeSummaryJson(opt, summary)) return 2;
@@ -475,32 +494,7 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
   summary << "stretch:      mean " << 100.0 * st.mean << " %, max " << 100.0 * st.max
           << " % (max over the run " << 100.0 * totals.maxStretch << " %)\n";
   summary << "min J:        " << totals.minAreaRatio << " (smallest deformed/rest area ratio seen)\n";
-  auto perStep = [&](std::uint64_t count) {
-    return totals.steps ? static_cast<double>(count) / static_cast<double>(totals.steps) : 0.0;
-  };
-  if (iteratesLocally) {
-    summary << "solver:       " << totals.localIterations << " "
-            << (scene.integrator == "xpbd" ? "constraint sweeps" : "local/global iterations")
-            << " (" << perStep(totals.localIterations) << " per step), " << totals.substeps
-            << " substeps, " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
-  } else if (scene.integrator == "symplectic_euler") {
-    summary << "solver:       explicit, " << totals.substeps << " substeps (" << perStep(totals.substeps)
-            << " per step), " << totals.rollbacks << " rollbacks, " << totals.failures << " failures\n";
-  } else {
-    summary << "solver:       ";
-    if (totals.quasiNewtonIterations > 0) {
-      summary << totals.quasiNewtonIterations << " L-BFGS iterations (" << perStep(totals.quasiNewtonIterations)
-              << " per step), " << totals.solverFallbacks << " substeps fell back to Newton, ";
-    }
-    summary << totals.newtonIterations << " Newton iterations ("
-            << perStep(totals.newtonIterations) << " per step), max residual " << totals.maxResidual
-            << " N, " << totals.backtracks << " line-search backtracks, " << totals.rollbacks << " rollbacks";
-    if (totals.tightened > 0) summary << " (" << totals.tightened << " re-solved 100x tighter)";
-    summary << ", " << totals.failures << " failures\n";
-    summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations + totals.quasiNewtonIterations);
-  }
-  summary << errorLine(totals.worstError);
-  if (totals.boxDepth > 0.0) summary << "surface:      " << boxDepthText(totals) << '\n';
+  summary << solverLines(totals, scene.integrator, solvesByLbfgs(simulator.integrator()));
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
   warnAboutBalance(balance);
@@ -549,8 +543,7 @@ Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps,
     }
     const StepReport r = simulator.step();
     if (!r.ok) {
-      ++totals.failures;
-      totals.rollbacks += static_cast<std::uint64_t>(r.rollbacks);
+      totals.addFailure(r);
       out.failure = r.error;
       break;
     }
@@ -562,13 +555,6 @@ Stepped stepToEnd(Simulation& sim, const Scene& scene, std::uint64_t totalSteps,
   out.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wallStart).count();
   progress.finish();
   return out;
-}
-
-// The worst displacement error of the accepted steps (m; null when not measured).
-Json displacementErrorJson(const DisplacementError& e) {
-  if (!e.measured()) return nullptr;
-  return Json{{"relative", e.relative}, {"error", e.error}, {"truncation", e.truncation},
-              {"tolerance", e.tolerance}, {"vertex", e.vertex}, {"largest", e.largest}};
 }
 
 // The summary of a scene run for --summary-json.

@@ -211,3 +211,51 @@ TEST(ReportToolCommandLine, BadOptionsAreOneErrorLine) {
   EXPECT_EQ(help.status, 0);
   EXPECT_NE(help.out.find("--small"), std::string::npos);
 }
+
+// --set integrator.KEY that an integrator of the study does not read would be ignored in its runs:
+// refused before any work, with fem_cloth_sim's message for the same setting (exit 2); so is a
+// key the study sets itself in its runs.
+TEST(ReportToolCommandLine, SetKeyAnIntegratorDoesNotReadIsRefusedAsBySim) {
+  const TempDir scratch("fem_cloth_report_set");
+  const std::string out = scratch.path("report");
+  const std::vector<std::string> study = {"--study", "work-precision", "--small", "--scenes", "hanging_cloth",
+                                          "--duration", "0.03333333333333333", "--repeats", "1", "-q", "--out", out};
+  std::vector<std::string> args = {"--set", "integrator.iterations=5", "--integrators", "xpbd,backward_euler"};
+  args.insert(args.end(), study.begin(), study.end());
+  const ProgramResult r = runProgram(FEM_CLOTH_REPORT_EXE, args, scratch);
+  EXPECT_EQ(r.status, 2) << r.err;
+  const ProgramResult sim = runProgram(FEM_CLOTH_SIM_EXE, {"--scene", FEM_CLOTH_CONFIG_DIR "/hanging_cloth.yaml",
+                                                           "--integrator", "backward_euler", "--set",
+                                                           "integrator.iterations=5", "--check"}, scratch);
+  ASSERT_EQ(sim.status, 2) << sim.err;
+  ASSERT_EQ(sim.err.rfind("fem_cloth_sim: ", 0), 0u) << sim.err;
+  EXPECT_EQ(r.err, "fem_cloth_report: " + sim.err.substr(std::string("fem_cloth_sim: ").size()));
+  // What the message must say, whoever prints it: the setting, the integrator that ignores it,
+  // and the two that read it (the registry's order).
+  for (const char* part : {"--set integrator.iterations: integrator backward_euler does not use integrator.iterations",
+                           "(read by xpbd, projective_dynamics)", "backward_euler reads: name, dt, substeps"}) {
+    EXPECT_NE(r.err.find(part), std::string::npos) << part << " in " << r.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(out)) << "refused after work began";
+  // Keys the study sets itself in its runs, after --set, would be ignored too: integrator.name
+  // (every run), integrator.iterations (the setting it sweeps for xpbd: "xpbd 4 it" with --small,
+  // cases.h) and integrator.dt; refused naming the key and a run that sets it.
+  for (const auto& [set, run] : {std::pair{"integrator.name=xpbd", "xpbd 4 it"},
+                                 std::pair{"integrator.iterations=5", "xpbd 4 it"},
+                                 std::pair{"integrator.dt=0.01", "xpbd 4 it"}}) {
+    args = {"--set", set, "--integrators", "xpbd,projective_dynamics"};
+    args.insert(args.end(), study.begin(), study.end());
+    const ProgramResult own = runProgram(FEM_CLOTH_REPORT_EXE, args, scratch);
+    EXPECT_EQ(own.status, 2) << own.err;
+    const std::string key = std::string(set).substr(0, std::string(set).find('='));
+    EXPECT_EQ(own.err.rfind("fem_cloth_report: --set " + key + ": the study sets it itself in its run '" + run + "'", 0), 0u)
+        << own.err;
+    EXPECT_FALSE(std::filesystem::exists(out)) << "refused after work began";
+  }
+  // A key every integrator of the study reads and no run sets: the report runs.
+  args = {"--set", "integrator.max_retries=2", "--integrators", "xpbd,projective_dynamics"};
+  args.insert(args.end(), study.begin(), study.end());
+  const ProgramResult ok = runProgram(FEM_CLOTH_REPORT_EXE, args, scratch);
+  EXPECT_EQ(ok.status, 0) << ok.err;
+  EXPECT_TRUE(std::filesystem::exists(out + "/work_precision.csv"));
+}

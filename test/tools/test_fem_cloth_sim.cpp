@@ -14,6 +14,8 @@
 #include <filesystem>
 #include <thread>
 #include <fstream>
+#include <map>
+#include <regex>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -67,6 +69,120 @@ void expectUsageError(const std::vector<std::string>& args,
 }
 
 }  // namespace
+
+// The solve time line is labelled by the solver the scene chose (integrator.solver): "Newton
+// time:" for newton, "L-BFGS time:" for lbfgs (Newton's check of its solutions included), never
+// the other; its time per iteration is its total over the iterations of the solvers that spent
+// it, as the solver line counts them.
+TEST(FemClothSim, SolveTimeIsLabelledByTheSolverUsed) {
+  for (const std::string solver : {"newton", "lbfgs"}) {
+    const Result r = runSim({"--scene", kConfigDir + "/hanging_cloth.yaml", "--integrator", "backward_euler",
+                             "--set", "mesh.rows=9", "--set", "mesh.cols=9", "--set", "integrator.solver=" + solver,
+                             "--duration", "0.05", "--no-output", "--quiet"});
+    ASSERT_EQ(r.status, 0) << solver << ": " << r.err;
+    const bool lbfgs = solver == "lbfgs";
+    EXPECT_EQ(r.out.find(lbfgs ? "Newton time:" : "L-BFGS time:"), std::string::npos) << r.out;
+    std::smatch m;
+    const std::string label = lbfgs ? "L-BFGS time:" : "Newton time:";
+    ASSERT_TRUE(std::regex_search(r.out, m, std::regex(label + R"(\s+([0-9.e+-]+) s[^,]*, ([0-9.e+-]+) ms per iteration)")))
+        << solver << ":\n" << r.out;
+    const double seconds = std::stod(m[1]), ms = std::stod(m[2]);
+    double iterations = 0.0;
+    if (lbfgs) {
+      ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(solver:\s+(\d+) L-BFGS iterations .*, (\d+) Newton iterations)")))
+          << r.out;
+      EXPECT_GT(std::stod(m[1]), 0.0) << r.out;
+      iterations = std::stod(m[1]) + std::stod(m[2]);
+    } else {
+      ASSERT_TRUE(std::regex_search(r.out, m, std::regex(R"(solver:\s+(\d+) Newton iterations)"))) << r.out;
+      iterations = std::stod(m[1]);
+    }
+    ASSERT_GT(iterations, 0.0) << r.out;
+    // Both printed to 4 significant digits.
+    EXPECT_NEAR(ms, 1e3 * seconds / iterations, 2e-3 * ms) << solver << ":\n" << r.out;
+  }
+}
+
+// A run into a bag (--out FILE.bag) prints the summary lines on the steps that a scene run into
+// CSV prints, equal: the substeps, the solver line, the solve time line's label, the error line.
+// The same scene steps alike on both paths. The substeps and Newton iterations are also the sums
+// of energy.csv's per-step columns (--every 1), which the summary does not print from.
+TEST(FemClothSim, ABagRunPrintsTheStepSummaryOfACsvRun) {
+  const std::regex stepLine(R"(\((\d+) substeps\))"), timeLine(R"(^(\S+ time:) )");
+  const std::regex newtonCount(R"((\d+) Newton iterations)");
+  for (const std::vector<std::string>& setting :
+       {std::vector<std::string>{"backward_euler", "integrator.solver=newton"},
+        std::vector<std::string>{"bdf2", "integrator.solver=lbfgs"},
+        std::vector<std::string>{"symplectic_euler", "integrator.substeps=1"},
+        std::vector<std::string>{"xpbd", "integrator.iterations=6"}}) {
+    std::vector<std::string> args = {"--scene", kConfigDir + "/hanging_cloth.yaml", "--integrator", setting[0],
+                                     "--set", "mesh.rows=9", "--set", "mesh.cols=9", "--set", setting[1],
+                                     "--duration", "0.05", "--quiet", "--every", "1", "--out"};
+    std::vector<std::string> bagArgs = args;
+    const std::string csv = scratch().path("summary_" + setting[0]);
+    args.push_back(csv);
+    bagArgs.push_back(scratch().path("summary_" + setting[0] + ".bag"));
+    const Result plain = runSim(args), toBag = runSim(bagArgs);
+    ASSERT_EQ(plain.status, 0) << plain.err;
+    ASSERT_EQ(toBag.status, 0) << toBag.err;
+    std::map<std::string, std::string> seen[2];
+    for (int k = 0; k < 2; ++k) {
+      for (const std::string& line : lines((k == 0 ? plain : toBag).out)) {
+        std::smatch m;
+        if (line.rfind("steps:", 0) == 0 && std::regex_search(line, m, stepLine)) seen[k]["substeps"] = m[1];
+        if (line.rfind("solver:", 0) == 0 || line.rfind("error:", 0) == 0) seen[k][line.substr(0, 6)] = line;
+        if (std::regex_search(line, m, timeLine)) seen[k]["time"] = m[1];
+      }
+    }
+    const bool implicit = setting[0] == "backward_euler" || setting[0] == "bdf2";
+    EXPECT_EQ(seen[0].size(), implicit ? 4u : 2u) << setting[0] << ":\n" << plain.out;
+    EXPECT_EQ(seen[1], seen[0]) << setting[0] << ":\n" << plain.out << "\n" << toBag.out;
+    if (implicit) {
+      EXPECT_EQ(seen[1]["time"], setting[0] == "bdf2" ? "L-BFGS time:" : "Newton time:") << toBag.out;
+    }
+    // energy.csv: time,step,...,substeps (column 17),newton_iterations (18),...; row 0 is the start.
+    std::uint64_t substeps = 0, newton = 0;
+    const std::vector<std::string> rows = lines(readFile(csv + "/energy.csv"));
+    ASSERT_EQ(rows.size(), 7u) << setting[0];  // the header, the start, 5 steps
+    for (std::size_t i = 2; i < rows.size(); ++i) {
+      std::vector<std::string> cells;
+      std::stringstream row(rows[i]);
+      for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+      ASSERT_GT(cells.size(), 18u) << rows[i];
+      substeps += std::stoull(cells[17]);
+      newton += std::stoull(cells[18]);
+    }
+    EXPECT_EQ(seen[1]["substeps"], std::to_string(substeps)) << toBag.out;
+    std::smatch m;
+    if (implicit) {
+      ASSERT_TRUE(std::regex_search(seen[1]["solver"], m, newtonCount)) << toBag.out;
+      EXPECT_EQ(m[1], std::to_string(newton)) << toBag.out;
+    }
+  }
+}
+
+// A run into a bag judges the cloth's reach into a box as a scene run does: table_drape reaches
+// 13.4 mm into the table by step 19 (docs/contact.md: the figure of an independent check of 66
+// points per triangle), so both runs end with status "warning", the same box_depth, a surface
+// line and a warning on stderr.
+TEST(FemClothSim, ABagRunReportsTheReachIntoABox) {
+  std::vector<nlohmann::json> summaries;
+  for (const std::string out : {"box_depth_csv", "box_depth.bag"}) {
+    const std::string json = scratch().path(out + ".json");
+    const Result r = runSim({"--scene", kConfigDir + "/table_drape.yaml", "--duration", "0.3", "--quiet",
+                             "--out", scratch().path(out), "--summary-json", json});
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.out.find("surface:      the cloth's surface reached 13.4 mm into triangle 99 in box 'table'"),
+              std::string::npos) << out << ":\n" << r.out;
+    EXPECT_NE(r.err.find("fem_cloth_sim: warning: the cloth's surface reached 13.4 mm"), std::string::npos) << r.err;
+    summaries.push_back(nlohmann::json::parse(readFile(json)));
+  }
+  for (const nlohmann::json& s : summaries) {
+    EXPECT_EQ(s["status"], "warning") << s.dump();
+    EXPECT_NEAR(s["box_depth"].get<double>(), 0.0134, 0.00005) << s.dump();
+  }
+  EXPECT_EQ(summaries[0]["box_depth"], summaries[1]["box_depth"]);
+}
 
 // Every shipped scene with every integrator for a few steps: exit 0, every step taken, and a
 // summary naming the integrator; nothing on stderr but warnings. Or, for XPBD on the stiff

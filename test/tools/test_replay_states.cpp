@@ -12,6 +12,9 @@
 #include <rosbag/view.h>
 
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
@@ -24,6 +27,43 @@
 using fem_cloth::ClothState;
 using fem_cloth::test::ProgramResult;
 using fem_cloth::test::TempDir;
+
+// A message that stands for a fem_cloth/ClothState (its type, md5sum and definition) but holds
+// only the first bytes of one: a state cut short, as a damaged copy of a recording holds it.
+struct CutState {
+  std::vector<std::uint8_t> bytes;
+};
+
+namespace ros::message_traits {
+template <>
+struct MD5Sum<CutState> {
+  static const char* value() { return MD5Sum<ClothState>::value(); }
+  static const char* value(const CutState&) { return value(); }
+};
+template <>
+struct DataType<CutState> {
+  static const char* value() { return DataType<ClothState>::value(); }
+  static const char* value(const CutState&) { return value(); }
+};
+template <>
+struct Definition<CutState> {
+  static const char* value() { return Definition<ClothState>::value(); }
+  static const char* value(const CutState&) { return value(); }
+};
+}  // namespace ros::message_traits
+
+namespace ros::serialization {
+template <>
+struct Serializer<CutState> {
+  template <typename Stream>
+  static void write(Stream& stream, const CutState& m) {
+    std::memcpy(stream.advance(static_cast<std::uint32_t>(m.bytes.size())), m.bytes.data(), m.bytes.size());
+  }
+  template <typename Stream>
+  static void read(Stream&, CutState&) {}
+  static std::uint32_t serializedLength(const CutState& m) { return static_cast<std::uint32_t>(m.bytes.size()); }
+};
+}  // namespace ros::serialization
 
 namespace {
 
@@ -287,4 +327,68 @@ TEST(ReplayTf, TheOutputOfAReplayVerifiesInTurn) {
   EXPECT_NE(twice.out.find(std::to_string(n) + " of " + std::to_string(n) + " recorded states bit for bit"), std::string::npos)
       << twice.out;
   EXPECT_NE(twice.out.find(", 0 rejected"), std::string::npos) << twice.out;
+}
+
+// A recording cut short (a recorder killed mid-write, a copy that stopped): rosbag finds no index
+// at the end (the header points past the end of the file) and opens none of it, so the replay
+// refuses the bag before any work: status 2, one line naming the bag, no output, no abort.
+TEST(DamagedRecording, ATruncatedBagIsOneErrorAndNoOutput) {
+  std::ifstream in(kFixture, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_GT(bytes.size(), 1000u);
+  for (const double fraction : {0.3, 0.6, 0.99}) {
+    const std::string cut = scratch().path("cut_" + std::to_string(static_cast<int>(100 * fraction)) + ".bag");
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, static_cast<std::size_t>(fraction * static_cast<double>(bytes.size())));
+    const std::string out = scratch().path("cut_replay.bag");
+    const ProgramResult r = sim({"--commands", cut, "--out", out, "-q"});
+    EXPECT_EQ(r.status, 2) << cut << ": " << r.out << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("fem_cloth_sim: bag '" + cut + "' is truncated or damaged", 0), 0u) << r.err;
+    EXPECT_EQ(r.err.find("FATAL"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
+// A recorded state cut short inside an intact bag (its message holds half of its bytes): it does
+// not deserialise, and the replay stops before any work with status 2 and one line naming the
+// bag, the state's topic, its place in the bag (message K, counted by the test in bag order) and
+// its bag time; no output is written.
+TEST(DamagedRecording, AStateCutShortIsRefusedByItsPlaceTopicAndTime) {
+  const std::string path = scratch().path("cut_state.bag");
+  const std::size_t damaged = 40;  // the 41st state
+  std::size_t message = 0, states = 0, damagedMessage = 0;
+  ros::Time damagedTime;
+  {
+    rosbag::Bag in(kFixture);
+    rosbag::Bag out(path, rosbag::bagmode::Write);
+    for (const rosbag::MessageInstance& m : rosbag::View(in)) {
+      ++message;
+      if (m.getTopic() != kStateTopic || states++ != damaged) {
+        out.write(m.getTopic(), m.getTime(), m, m.getConnectionHeader());
+        continue;
+      }
+      const ClothState s = *m.instantiate<ClothState>();
+      CutState cutShort;
+      cutShort.bytes.resize(ros::serialization::serializationLength(s));
+      ros::serialization::OStream stream(cutShort.bytes.data(), static_cast<std::uint32_t>(cutShort.bytes.size()));
+      ros::serialization::serialize(stream, s);
+      cutShort.bytes.resize(cutShort.bytes.size() / 2);
+      out.write(m.getTopic(), m.getTime(), cutShort);
+      damagedMessage = message;
+      damagedTime = m.getTime();
+    }
+  }
+  ASSERT_GT(damagedMessage, 0u);
+  const std::string out = scratch().path("cut_state_replay.bag");
+  const ProgramResult r = sim({"--commands", path, "--out", out, "-q"});
+  EXPECT_EQ(r.status, 2) << r.out << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  std::ostringstream time;
+  time << damagedTime;  // the stamp as ROS prints it: seconds.nanoseconds
+  for (const std::string& word : {"bag '" + path + "'", "message " + std::to_string(damagedMessage) + " (" + kStateTopic,
+                                  "bag time " + time.str() + " s", std::string("truncated or damaged")}) {
+    EXPECT_NE(r.err.find(word), std::string::npos) << "expected '" << word << "' in: " << r.err;
+  }
+  EXPECT_EQ(r.out, "");
+  EXPECT_FALSE(std::filesystem::exists(out));
 }

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "fem_cloth/core/integrators/step_totals.h"
 #include "fem_cloth/core/metrics.h"
 #include "fem_cloth/core/simulator.h"
 #include "fem_cloth/io/recording.h"
@@ -37,7 +38,10 @@ struct BagRunOptions {
 struct BagRunReport {
   std::string scene;       ///< scene name
   std::string integrator;
+  bool lbfgs = false;  ///< the implicit stepper solves by L-BFGS (solvesByLbfgs)
   std::uint64_t steps = 0;
+  /// What the steps did (solvers, substeps, worst error, reach into boxes), as a scene run sums it.
+  StepTotals stepTotals;
   double simulated = 0.0;  ///< s
   double wall = 0.0;       ///< s
   std::array<std::size_t, kCommandTopics> commands{};  ///< replayed, per command topic

@@ -21,6 +21,11 @@ std::string implicitSolverName(ImplicitSolver kind) {
   return kind == ImplicitSolver::Lbfgs ? "lbfgs" : "newton";
 }
 
+bool solvesByLbfgs(const Integrator& integrator) {
+  const auto* implicit = dynamic_cast<const ImplicitIntegrator*>(&integrator);
+  return implicit != nullptr && implicit->solver() == ImplicitSolver::Lbfgs;
+}
+
 ImplicitIntegrator::ImplicitIntegrator(ImplicitScheme scheme, NewtonSettings settings,
                                        ImplicitSolverSettings solver)
     : scheme_(scheme),

@@ -68,6 +68,8 @@ class ImplicitIntegrator final : public Integrator {
     sizeScale_ = 0.0;
   }
 
+  /// The solver that minimises Phi (integrator.solver).
+  ImplicitSolver solver() const { return solverKind_; }
   /// The linear solver in use (null before the first step).
   const LinearSolver* linearSolver() const { return newton_.linearSolver(); }
   /// The quasi-Newton solver's initial Hessian (built on its first substep).
@@ -122,5 +124,9 @@ class ImplicitIntegrator final : public Integrator {
   // Scratch, sized once.
   VectorX xTrial_, unbalancedForce_, velocity_, vNew_;
 };
+
+/// Whether `integrator` is an implicit stepper solving by L-BFGS (integrator.solver: lbfgs),
+/// whose summaries count L-BFGS iterations beside Newton's.
+bool solvesByLbfgs(const Integrator& integrator);
 
 }  // namespace fem_cloth
