@@ -1,6 +1,7 @@
 // The exact depth of a triangle in a box (surface_check.h) against hand cases and an independent
 // dense barycentric sampling written out here from the definition (the depth of a point p is
-// min_i (h_i - |p_i|)).
+// min_i (h_i - |p_i|)), and the explicit steppers' surface check (projection_contact.h) that uses
+// it: boxes reported through ContactStats::boxDepth, round obstacles failing the substep.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,9 +9,12 @@
 #include <iostream>
 #include <random>
 
+#include "fem_cloth/core/contact/projection_contact.h"
 #include "fem_cloth/core/contact/surface_check.h"
+#include "test_support.h"
 
 using namespace fem_cloth;
+using namespace fem_cloth::test;
 
 namespace {
 
@@ -115,4 +119,90 @@ TEST(TriangleBoxDepth, MatchesDenseSampling) {
   EXPECT_GT(outside, 20);
   std::cout << inside << " triangles reaching into their box, " << outside
             << " not; the largest gap to the sampling, in units of its bound: " << worstGap << "\n";
+}
+
+namespace {
+
+struct Projection {
+  Simulation sim;
+  std::shared_ptr<ObstacleSet> obstacles;
+  std::unique_ptr<ProjectionContact> contact;
+};
+
+// A 3 x 3 sheet (side 0.1 m) and the explicit steppers' contact against one obstacle, 2 mm d̂.
+Projection projection(const Obstacle& obstacle) {
+  Projection p{mustBuild(gridScene(3, 3, 0.1, "symplectic_euler")), nullptr, nullptr};
+  p.obstacles = std::make_shared<ObstacleSet>(std::vector<Obstacle>{obstacle});
+  p.contact = std::make_unique<ProjectionContact>(*p.sim.model, p.obstacles, 2e-3);
+  return p;
+}
+
+// One substep of 0.01 s ending at x (which no vertex of is within d̂ of the obstacle).
+ContactStats substep(Projection& p, VectorX x, const std::vector<char>& pinned) {
+  p.obstacles->beginStep(0.0, 0.01);
+  p.contact->beginSubstep(0.0, 1.0);
+  EXPECT_EQ(p.contact->project(x, x, pinned), 0);
+  ContactStats stats;
+  p.contact->finishSubstep(x, x, 0.01, 1.0, stats);
+  return stats;
+}
+
+}  // namespace
+
+// The sheet folded over the box's edge (x = z = 0.1 m): its first row at x = 0.13, z = 0.05
+// (3 cm outside the +x face), its second at x = 0.05, z = 0.12 (2 cm above the top), its third at
+// x = -0.05, z = 0.12. Between the first two rows the point at the fraction t has
+// x = 0.13 - 0.08 t, z = 0.05 + 0.07 t: its depth min(0.1 - x, 0.1 - z) (|y| <= 0.05 leaves
+// 0.05 or more) is largest where 0.08 t - 0.03 = 0.05 - 0.07 t, t = 8/15: 0.19/15 m = 12.67 mm
+// by hand (a grid of tenths of the way finds 10 mm at best). Pinning the first row takes every
+// triangle between the first two rows out of the check (the pin wins): nothing.
+TEST(ProjectionSurfaceCheck, ExactBoxDepthOfASheetFoldedOverAnEdge) {
+  Obstacle box;
+  box.name = "block";
+  box.shape.type = ShapeType::Box;
+  box.shape.halfExtents = Eigen::Vector3d(0.1, 0.1, 0.1);
+  Projection p = projection(box);
+  VectorX x(27);
+  for (Index v = 0; v < 9; ++v) {
+    const double y = -0.05 + 0.05 * (v % 3);
+    const Eigen::Vector3d rows[3] = {{0.13, y, 0.05}, {0.05, y, 0.12}, {-0.05, y, 0.12}};
+    x.segment<3>(3 * v) = rows[v / 3];
+  }
+  std::vector<char> pinned(27, 0);
+  const ContactStats stats = substep(p, x, pinned);
+  EXPECT_NEAR(stats.boxDepth, 0.19 / 15, 1e-15);
+  EXPECT_NE(stats.boxDepthWhere.find("in box 'block'"), std::string::npos) << stats.boxDepthWhere;
+  EXPECT_TRUE(stats.crossing.empty()) << stats.crossing;  // a box is reported, not failed
+  std::fill(pinned.begin(), pinned.begin() + 9, 1);
+  EXPECT_EQ(substep(p, x, pinned).boxDepth, 0.0);
+}
+
+// A flat sheet at z = 0 and a 2 cm ball centred on the centroid of one of its triangles: the
+// triangle's vertices are outside (the centroid of a right triangle with 5 cm legs is
+// sqrt(5) / 3 x 5 cm = 3.7 cm from its farthest vertex, sqrt(2) x 5 cm / 3 = 2.36 cm from the
+// others), but its middle is the radius, 20 mm, inside: more than max(d̂, radius / 2) = 10 mm,
+// the substep fails naming the triangle and the ball. 1.5 cm lower the ball reaches 5 mm into
+// the sheet, within the tolerance: no failure.
+TEST(ProjectionSurfaceCheck, BallThroughATriangleBetweenItsVertices) {
+  Obstacle ball;
+  ball.name = "ball";
+  ball.shape.type = ShapeType::Sphere;
+  ball.shape.radius = 0.02;
+  Projection p0 = projection(ball);
+  const Triangle tri = p0.sim.model->mesh().triangles[0];
+  VectorX x = p0.sim.simulator->state().x;
+  for (Index v = 0; v < 9; ++v) x[3 * v + 2] = 0.0;
+  const Eigen::Vector3d centroid = (x.segment<3>(3 * tri[0]) + x.segment<3>(3 * tri[1]) + x.segment<3>(3 * tri[2])) / 3.0;
+  for (Index v = 0; v < 9; ++v) ASSERT_GT((x.segment<3>(3 * v) - centroid).norm(), 0.02) << "vertex " << v;
+  ball.geometry.translation() = centroid;
+  Projection p = projection(ball);
+  const std::vector<char> pinned(27, 0);
+  const ContactStats through = substep(p, x, pinned);
+  EXPECT_NE(through.crossing.find("triangle 0 (vertices "), std::string::npos) << through.crossing;
+  EXPECT_NE(through.crossing.find("is 20.00 mm inside obstacle 'ball' (moving at 0 m/s)"), std::string::npos)
+      << through.crossing;
+  EXPECT_EQ(through.boxDepth, 0.0);
+  ball.geometry.translation() = centroid - Eigen::Vector3d(0.0, 0.0, 0.015);
+  Projection lower = projection(ball);
+  EXPECT_TRUE(substep(lower, x, pinned).crossing.empty());
 }
