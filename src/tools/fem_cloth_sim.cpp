@@ -226,13 +226,16 @@ const char* runStatus(const std::string& failure, const EnergyReport& e, const B
 }
 
 // The summary's line, and the warning, when the cloth's surface reached into a box between its
-// vertices (boxes keep vertices out, not the points between them: docs/contact.md, Limits).
-std::string boxDepthText(const Totals& t) {
+// vertices (boxes keep vertices out, not the points between them: docs/contact.md, Limits). The
+// projection of the explicit steppers measures it exactly, the barriers' contact model at least.
+std::string boxDepthText(const Totals& t, const std::string& integrator) {
+  const Expected<const IntegratorEntry*> entry = findIntegrator(integrator);
+  const bool exact = entry && (*entry)->supports.contact == ContactMethod::Projection;
   std::ostringstream text;
   text << std::setprecision(3) << "the cloth's surface reached " << 1e3 * t.boxDepth << " mm into " << t.boxDepthWhere
        << " between its vertices (step " << t.boxDepthStep
-       << "; at least: a grid of points per triangle): boxes keep vertices out, not edges and triangles "
-          "(docs/contact.md, Limits)";
+       << (exact ? "; exact: every triangle after every substep" : "; at least: a grid of points per triangle")
+       << "): boxes keep vertices out, not edges and triangles (docs/contact.md, Limits)";
   return text.str();
 }
 
@@ -500,11 +503,13 @@ void printSummary(const Options& opt, const Scene& scene, Simulator& simulator, 
     summary << newtonTimeLine(totals.newtonTimes, totals.newtonIterations + totals.quasiNewtonIterations);
   }
   summary << errorLine(totals.worstError);
-  if (totals.boxDepth > 0.0) summary << "surface:      " << boxDepthText(totals) << '\n';
+  if (totals.boxDepth > 0.0) summary << "surface:      " << boxDepthText(totals, simulator.integrator().name()) << '\n';
   if (!outDir.empty()) summary << "outputs:      " << outDir << "/trajectory.csv, " << outDir << "/energy.csv\n";
   std::cout << summary.str();
   warnAboutBalance(balance);
-  if (totals.boxDepth > 0.0) std::cerr << "fem_cloth_sim: warning: " << oneLine(boxDepthText(totals)) << '\n';
+  if (totals.boxDepth > 0.0) {
+    std::cerr << "fem_cloth_sim: warning: " << oneLine(boxDepthText(totals, simulator.integrator().name())) << '\n';
+  }
 }
 
 // Watches a run after every step: the smallest area ratio and the largest stretch so far, and on

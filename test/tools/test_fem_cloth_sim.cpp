@@ -231,6 +231,25 @@ TEST(FemClothSim, ClothReachingIntoABoxBetweenVerticesIsAWarning) {
   EXPECT_EQ(nlohmann::json::parse(readFile(flat)).at("status"), "ok");
 }
 
+// The explicit steppers measure the depth exactly (issue 30): a box's top 10 mm (by hand:
+// test/data/contact/post_through_sheet.yaml) through the middle of a triangle whose vertices are
+// all outside it. Before, they checked nothing for boxes and the run was "ok".
+TEST(FemClothSim, ExplicitSteppersWarnWithTheExactDepthIntoABox) {
+  for (const std::string integrator : {"symplectic_euler", "xpbd"}) {
+    const std::string json = scratch().path("post_" + integrator + ".json");
+    const Result r = runSim({"--scene", std::string(FEM_CLOTH_TEST_DATA_DIR) + "/contact/post_through_sheet.yaml",
+                             "--integrator", integrator, "--no-output", "--summary-json", json});
+    ASSERT_EQ(r.status, 0) << integrator << r.err;
+    const nlohmann::json summary = nlohmann::json::parse(readFile(json));
+    EXPECT_EQ(summary.at("status"), "warning") << integrator;
+    EXPECT_NEAR(summary.at("box_depth").get<double>(), 0.01, 1e-12) << integrator;
+    EXPECT_NE(r.err.find("reached 10 mm into triangle "), std::string::npos) << integrator << r.err;
+    EXPECT_NE(r.err.find(" in box 'post' between its vertices (step 1; exact: every triangle after every substep)"),
+              std::string::npos)
+        << integrator << r.err;
+  }
+}
+
 TEST(FemClothSim, BadScenesAndOptionsExit2WithOneLine) {
   const std::string seed = kConfigDir + "/seed_triangle.yaml";
   expectUsageError({"--scene", scratch().path("missing.yaml")}, {"cannot open", "missing.yaml"});
