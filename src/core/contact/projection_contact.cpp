@@ -179,7 +179,7 @@ void ProjectionContact::checkRound(const VectorX& x, std::size_t k, double h, Co
     const double speed = (obstacles.poseEnd(k).translation() - obstacles.poseStart(k).translation()).norm() / h;
     char text[200];
     std::snprintf(text, sizeof text,
-                  ") is %.2f mm inside obstacle '%s' (moving at %.3g m/s), more than the %.2f mm (max(d_hat, "
+                  ") is %.3f mm inside obstacle '%s' (moving at %.3g m/s), more than the %.3f mm (max(d_hat, "
                   "radius / 2)) let pass",
                   -1e3 * d, obstacles[k].name.c_str(), speed, 1e3 * tolerance);
     stats.crossing = "triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " +
