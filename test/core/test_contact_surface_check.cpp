@@ -38,6 +38,20 @@ double sampledDepth(const Eigen::Vector3d& h, const Eigen::Vector3d& a, const Ei
   return best;
 }
 
+// A random box centred at the origin (half extents 0.3 to 1.2 m) and triangle (coordinates
+// within 1.6 m of the centre): about four in five reach into the box.
+struct RandomCase {
+  Eigen::Vector3d h, a, b, c;
+};
+
+RandomCase randomCase(std::mt19937& rng) {
+  std::uniform_real_distribution<double> coordinate(-1.6, 1.6), extent(0.3, 1.2);
+  RandomCase r;
+  r.h = Eigen::Vector3d(extent(rng), extent(rng), extent(rng));
+  for (Eigen::Vector3d* p : {&r.a, &r.b, &r.c}) *p = Eigen::Vector3d(coordinate(rng), coordinate(rng), coordinate(rng));
+  return r;
+}
+
 }  // namespace
 
 // A triangle in the plane of the top face, within it: its points are on the surface, depth 0;
@@ -94,15 +108,12 @@ TEST(TriangleBoxDepth, FarTriangle) {
 // cell's diameter, longest side / n, of a grid point.
 TEST(TriangleBoxDepth, MatchesDenseSampling) {
   std::mt19937 rng(30);
-  std::uniform_real_distribution<double> coordinate(-1.6, 1.6), extent(0.3, 1.2);
   constexpr int n = 150;
   int inside = 0, outside = 0;
   double worstGap = 0.0;
   for (int trial = 0; trial < 300; ++trial) {
-    const Eigen::Vector3d h(extent(rng), extent(rng), extent(rng));
-    const Eigen::Vector3d a(coordinate(rng), coordinate(rng), coordinate(rng));
-    const Eigen::Vector3d b(coordinate(rng), coordinate(rng), coordinate(rng));
-    const Eigen::Vector3d c(coordinate(rng), coordinate(rng), coordinate(rng));
+    const RandomCase r = randomCase(rng);
+    const Eigen::Vector3d &h = r.h, &a = r.a, &b = r.b, &c = r.c;
     const double exact = triangleBoxDepth(h, a, b, c);
     const double sampled = sampledDepth(h, a, b, c, n);
     const double side = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
@@ -119,6 +130,48 @@ TEST(TriangleBoxDepth, MatchesDenseSampling) {
   EXPECT_GT(outside, 20);
   std::cout << inside << " triangles reaching into their box, " << outside
             << " not; the largest gap to the sampling, in units of its bound: " << worstGap << "\n";
+}
+
+// The hand triangle across the edge x = z = 1 moved 0.1 m outward along x and z: in the plane
+// x + z = 2.1, beyond the box's x + z <= 2 (-0.05 in the maximum norm), and no face's plane
+// has it all beyond: the triangle's normal separates it.
+TEST(TriangleSeparatedFromBox, TheTrianglesNormalSeparatesWhatNoFaceDoes) {
+  const Eigen::Vector3d a(1.55, 0.0, 0.55), b(0.55, -0.5, 1.55), c(0.55, 0.5, 1.55);
+  EXPECT_FALSE(triangleBeyondAFace(kUnit, a, b, c));
+  EXPECT_TRUE(triangleSeparatedFromBox(kUnit, a, b, c));
+  EXPECT_NEAR(triangleBoxDepth(kUnit, a, b, c), -0.05, 1e-14);
+  // Shrunk by the depth of the unmoved triangle (0.05), it is separated from that one too, and
+  // not from the box shrunk by less.
+  const Eigen::Vector3d in(0.1, 0.0, 0.1);
+  EXPECT_TRUE(triangleSeparatedFromBox(kUnit.array() - 0.05, a - in, b - in, c - in));
+  EXPECT_FALSE(triangleSeparatedFromBox(kUnit.array() - 0.049, a - in, b - in, c - in));
+  EXPECT_TRUE(triangleSeparatedFromBox(Eigen::Vector3d(1.0, 0.0, 1.0), a - in, b - in, c - in)) << "an empty box";
+}
+
+// The separating axis test agrees with the exact depth on random triangles: separated from the
+// box shrunk by d exactly when the depth is at most d (up to rounding), for d = 0 and d = 0.1.
+TEST(TriangleSeparatedFromBox, AgreesWithTheExactDepth) {
+  std::mt19937 rng(31);
+  int separated = 0, notSeparated = 0, notByAFace = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const RandomCase r = randomCase(rng);
+    const Eigen::Vector3d &h = r.h, &a = r.a, &b = r.b, &c = r.c;
+    const double exact = triangleBoxDepth(h, a, b, c);
+    for (const double d : {0.0, 0.1}) {
+      const Eigen::Vector3d shrunk = h.array() - d;
+      if (triangleSeparatedFromBox(shrunk, a, b, c)) {
+        EXPECT_LE(exact, d + 1e-12) << "trial " << trial << ", d " << d;
+        ++separated;
+        if (!triangleBeyondAFace(shrunk, a, b, c)) ++notByAFace;
+      } else {
+        EXPECT_GE(exact, d - 1e-12) << "trial " << trial << ", d " << d;
+        ++notSeparated;
+      }
+    }
+  }
+  EXPECT_GT(notSeparated, 500);
+  EXPECT_GT(notByAFace, 100) << "the normal and the cross axes were tried";
+  std::cout << separated << " separated (" << notByAFace << " not by a face), " << notSeparated << " not\n";
 }
 
 namespace {
@@ -192,14 +245,16 @@ TEST(ProjectionSurfaceCheck, BallThroughATriangleBetweenItsVertices) {
   const Triangle tri = p0.sim.model->mesh().triangles[0];
   VectorX x = p0.sim.simulator->state().x;
   for (Index v = 0; v < 9; ++v) x[3 * v + 2] = 0.0;
-  const Eigen::Vector3d centroid = (x.segment<3>(3 * tri[0]) + x.segment<3>(3 * tri[1]) + x.segment<3>(3 * tri[2])) / 3.0;
+  const Eigen::Vector3d centroid =
+      (x.segment<3>(3 * tri[0]) + x.segment<3>(3 * tri[1]) + x.segment<3>(3 * tri[2])) / 3.0;
   for (Index v = 0; v < 9; ++v) ASSERT_GT((x.segment<3>(3 * v) - centroid).norm(), 0.02) << "vertex " << v;
   ball.geometry.translation() = centroid;
   Projection p = projection(ball);
   const std::vector<char> pinned(27, 0);
   const ContactStats through = substep(p, x, pinned);
   EXPECT_NE(through.crossing.find("triangle 0 (vertices "), std::string::npos) << through.crossing;
-  EXPECT_NE(through.crossing.find("is 20.000 mm inside obstacle 'ball' (moving at 0 m/s), more than the 10.000 mm"), std::string::npos)
+  EXPECT_NE(through.crossing.find("is 20.000 mm inside obstacle 'ball' (moving at 0 m/s), more than the 10.000 mm"),
+            std::string::npos)
       << through.crossing;
   EXPECT_EQ(through.boxDepth, 0.0);
   ball.geometry.translation() = centroid - Eigen::Vector3d(0.0, 0.0, 0.015);

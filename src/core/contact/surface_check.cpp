@@ -54,6 +54,27 @@ bool triangleBeyondAFace(const Eigen::Vector3d& halfExtents, const Eigen::Vector
          ((a.array() < -h) && (b.array() < -h) && (c.array() < -h)).any();
 }
 
+bool triangleSeparatedFromBox(const Eigen::Vector3d& halfExtents, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                              const Eigen::Vector3d& c) {
+  if ((halfExtents.array() <= 0.0).any() || triangleBeyondAFace(halfExtents, a, b, c)) return true;
+  // The box's projection on an axis is (-r, r), r = sum_i h_i |axis_i|; the triangle's is the
+  // range of its vertices' projections. Disjoint on one axis: separated (a zero axis separates
+  // nothing).
+  auto separates = [&](const Eigen::Vector3d& axis) {
+    const double r = halfExtents.dot(axis.cwiseAbs());
+    const double pa = axis.dot(a), pb = axis.dot(b), pc = axis.dot(c);
+    return r > 0.0 && (std::min({pa, pb, pc}) >= r || std::max({pa, pb, pc}) <= -r);
+  };
+  const std::array<Eigen::Vector3d, 3> sides = {b - a, c - b, a - c};
+  if (separates(sides[0].cross(sides[1]))) return true;
+  for (const Eigen::Vector3d& side : sides) {
+    for (int i = 0; i < 3; ++i) {
+      if (separates(Eigen::Vector3d::Unit(i).cross(side))) return true;
+    }
+  }
+  return false;
+}
+
 double triangleBoxDepth(const Eigen::Vector3d& halfExtents, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                         const Eigen::Vector3d& c) {
   const Pieces f = pieces(halfExtents, a, b, c);

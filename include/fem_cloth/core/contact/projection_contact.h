@@ -74,6 +74,7 @@ class ProjectionContact {
   std::vector<Triangle> triangles_;  // the mesh's triangles, if a box or a round obstacle needs them
   const std::vector<char>* pinned_ = nullptr;  // per DOF, from the last project()
   Eigen::Matrix3Xd local_;                      // the vertices in a box's frame (measureBoxDepth)
+  std::vector<unsigned char> beyond_;           // per vertex: the box's face planes it is beyond
 };
 
 }  // namespace fem_cloth

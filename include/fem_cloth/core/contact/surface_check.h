@@ -35,4 +35,14 @@ double triangleBoxDepth(const Eigen::Vector3d& halfExtents, const Eigen::Vector3
 bool triangleBeyondAFace(const Eigen::Vector3d& halfExtents, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                          const Eigen::Vector3d& c);
 
+/// True when a plane separates the triangle from the open box centred at the origin with half
+/// extents `halfExtents` (m; any <= 0: an empty box, true): the separating axis test on the
+/// box's three face normals (triangleBeyondAFace), the triangle's normal and the nine cross
+/// products of the box's axes with the triangle's sides. Then no point of the triangle is inside
+/// and triangleBoxDepth is <= 0; with the half extents shrunk by d, triangleBoxDepth with the
+/// real ones is <= d, so that a triangle that cannot be deeper than the deepest found so far is
+/// skipped exactly. False (no such plane): the triangle reaches into the box (or touches it).
+bool triangleSeparatedFromBox(const Eigen::Vector3d& halfExtents, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                              const Eigen::Vector3d& c);
+
 }  // namespace fem_cloth
