@@ -984,6 +984,11 @@ void ClothNode::publishDiagnostics(bool force) {
   add("energy balance", balance.text());
   add("pin jumps", std::to_string(energies.pinJumps));
   if (!balance.ok()) status.message = balance.warning();
+  // How deep the surface reached into a box between the vertices (fem_cloth_sim warns the same).
+  const SimulationDriver::BoxDepth& deepest = driver_->deepestIntoBox();
+  for (const auto& [key, value] : boxDepthDiagnostics(deepest)) add(key, value);
+  const std::string intoBox = boxDepthWarning(deepest);
+  if (!intoBox.empty() && status.message == "running") status.message = intoBox;
   add("paused by a failing step", selfPause_ == SelfPause::FailingStep ? "true" : "false");
   // The lag and how far back tf reaches (docs/node.md, Robot in the loop).
   add("lag (s)", fixedText(lag(), 3));
@@ -1003,7 +1008,8 @@ void ClothNode::publishDiagnostics(bool force) {
   }
   if (selfPause_ != SelfPause::None) status.message = selfPauseWhy_;
   status.level = failedSteps_ > 0 ? diagnostic_msgs::DiagnosticStatus::ERROR
-                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok() || selfPause_ != SelfPause::None)
+                 : (rejected > 0 || !lastProblem_.empty() || !balance.ok() || !intoBox.empty() ||
+                    selfPause_ != SelfPause::None)
                      ? diagnostic_msgs::DiagnosticStatus::WARN
                      : diagnostic_msgs::DiagnosticStatus::OK;
   array.status.push_back(status);

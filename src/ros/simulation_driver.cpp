@@ -467,6 +467,9 @@ StepReport SimulationDriver::step() {
   followObstacleFrames(t, t + dt);
   StepReport report = sim.step();
   if (!report.warning.empty()) warnings_.push_back(report.warning);
+  if (report.ok && report.boxDepth > deepestIntoBox_.depth) {
+    deepestIntoBox_ = {report.boxDepth, report.boxDepthWhere, stepIndex()};
+  }
   // A segment rebuilt from a recording starts here: its simulation time is known now.
   if (report.ok && timeline_.reach(stepIndex(), simulator().time())) retimePending();
   return report;
@@ -518,6 +521,7 @@ void SimulationDriver::reset() {
   pinSet_.clear();
   obstacleFrame_.clear();
   applied_.clear();
+  deepestIntoBox_ = BoxDepth();
   timeline_ = Timeline(timeline_.origin());
 }
 
@@ -561,12 +565,31 @@ StepStats statsMessage(const SimulationDriver& driver, const StepReport& report,
   StepStats msg = toMsg(driver.header(), driver.stepIndex(), sim.integrator().name(), sim.settings().dt,
                         report, wallTime, realTimeFactor);
   msg.min_area_ratio = minAreaRatio(sim.model().mesh(), sim.model().rest(), sim.state().x);
+  msg.box_depth = report.boxDepth;
+  msg.box_depth_where = report.boxDepthWhere;
+  const SimulationDriver::BoxDepth& deepest = driver.deepestIntoBox();
+  msg.max_box_depth = deepest.depth;
+  msg.max_box_depth_where = deepest.where;
+  msg.max_box_depth_step = deepest.step;
   if (counts) {
     setCommandStats(msg, counts);
   } else {
     setCommandStats(msg, [&driver](CommandTopic topic) { return driver.commandCounts(topic); });
   }
   return msg;
+}
+
+std::vector<std::pair<std::string, std::string>> boxDepthDiagnostics(const SimulationDriver::BoxDepth& deepest) {
+  return {{"deepest into a box between the vertices (mm)", numberText(1e3 * deepest.depth)},
+          {"deepest into a box: where", deepest.where},
+          {"deepest into a box: step", std::to_string(deepest.step)}};
+}
+
+std::string boxDepthWarning(const SimulationDriver::BoxDepth& deepest) {
+  if (deepest.depth <= 0.0) return std::string();
+  return "the cloth's surface reached " + numberText(1e3 * deepest.depth) + " mm into " + deepest.where +
+         " between its vertices (step " + std::to_string(deepest.step) +
+         "): boxes keep vertices out, not edges and triangles (docs/contact.md)";
 }
 
 void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts) {

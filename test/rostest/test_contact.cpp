@@ -81,6 +81,8 @@ TEST(Contact, TheClothLandsOnTheTableAndItCarriesTheWeight) {
   ASSERT_TRUE(st);
   // Every vertex of the flat cloth lies within the contact distance of the top.
   EXPECT_EQ(st->contacts, 81u);
+  // Flat on the top, every point of it above the table: nothing reached into the box.
+  EXPECT_EQ(st->max_box_depth, 0.0) << st->max_box_depth_where;
 }
 
 int main(int argc, char** argv) {

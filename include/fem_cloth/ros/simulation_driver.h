@@ -119,6 +119,14 @@ class SimulationDriver {
   /// Back to the initial state; pending commands (counted as discarded) and frame-following pins
   /// are dropped, and the timeline keeps its first segment only.
   void reset();
+  /// The deepest the cloth's surface reached into a box between its vertices since the start or
+  /// the last reset (StepReport::boxDepth, m), where, and in which step; depth 0: it did not.
+  struct BoxDepth {
+    double depth = 0.0;
+    std::string where;
+    std::uint64_t step = 0;
+  };
+  const BoxDepth& deepestIntoBox() const { return deepestIntoBox_; }
   /// Problems met while stepping (a frame no longer available, a command that could not be
   /// applied, a pin jump), since the last call.
   std::vector<std::string> takeWarnings();
@@ -184,6 +192,7 @@ class SimulationDriver {
   std::vector<std::string> warnings_;
   std::vector<Command> applied_;
   std::vector<Outcome> outcomes_;
+  BoxDepth deepestIntoBox_;
 };
 
 /// The node's wrench topic of the pins that follow `frame`: grasp/<frame>/wrench, with the
@@ -207,6 +216,11 @@ Status graspShapeProblem(const GraspCommand& command);
 StepStats statsMessage(const SimulationDriver& driver, const StepReport& report, double wallTime,
                        double realTimeFactor,
                        const std::function<CommandCounts(CommandTopic)>& counts = nullptr);
+/// The /diagnostics entries for the deepest reach into a box (key, value): its depth in mm, where
+/// and in which step; "0" and empty when the surface did not reach into a box.
+std::vector<std::pair<std::string, std::string>> boxDepthDiagnostics(const SimulationDriver::BoxDepth& deepest);
+/// The /diagnostics message for it (a warning, as fem_cloth_sim's), empty when there is none.
+std::string boxDepthWarning(const SimulationDriver::BoxDepth& deepest);
 /// Sets `msg.commands` (one entry per command topic, in CommandTopic order) and the older
 /// pin_commands and force_commands from `counts`.
 void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts);

@@ -8,7 +8,8 @@
 //   a capsule  is the point of the segment nearest the capsule's axis segment (edgeEdgeDistance);
 //   a plane    is always one of its ends (the distance is linear along it): vertex contact covers
 //              it, so no edge distance is given;
-//   a box      is not covered here yet (vertex contact only).
+//   a box      is not covered here: its corners and edges take barriers against the cloth's
+//              triangles and edges (box_features.h, box_contact.cpp).
 // Along the segment p(s) = a + s (b - a) the signed distance of a convex shape is convex, and at
 // its minimum s* the envelope theorem gives d(d)/da = (1 - s*) n, d(d)/db = s* n with n the
 // shape's outward normal at the closest point. Units: metres. Shape frame in, shape frame out.

@@ -57,9 +57,11 @@ struct ContactStats {
   /// the step fails with this message.
   std::string crossing;
   /// m: how deep the cloth's surface reaches into a box between its vertices at the end of the
-  /// substep (boxes keep vertices out, not the points between them: docs/contact.md), at least:
-  /// the deepest of a grid of points on each triangle; 0 when none is inside. Where: "triangle
-  /// 99 in box 'table'".
+  /// substep (the explicit steppers keep vertices out, not the points between them;
+  /// docs/contact.md): the implicit steppers' contact model (whose barriers keep it 0 in an
+  /// accepted substep) measures at least the deepest of a grid of points on each
+  /// triangle, the explicit steppers' projection the exact depth (surface_check.h); 0 when none
+  /// is inside. Where: "triangle 99 in box 'table'".
   double boxDepth = 0.0;
   std::string boxDepthWhere;
 };

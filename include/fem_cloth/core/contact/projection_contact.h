@@ -41,10 +41,13 @@ class ProjectionContact {
   /// massScale m correction / h^2 on each vertex (massScale = 1 + h alpha with implicit mass
   /// damping alpha, which scales the inertia of the update), the obstacles' work (that force
   /// times the motion of the obstacle's surface point under the vertex: ContactStats::work), the
-  /// obstacles' wrenches and the contact count. Last, the edge check: an edge of the cloth more
-  /// than dHat and half the radius inside a sphere or capsule (edge_distance.h; the projection
-  /// keeps vertices out, not the edges between them) sets stats.crossing, naming the edge, the
-  /// obstacle and its speed.
+  /// obstacles' wrenches and the contact count. Last, the surface check (surface_check.h), on
+  /// every triangle whose three vertices are free (the pin wins): the deepest point of any such
+  /// triangle inside a box, exact (triangleBoxDepth), into stats.boxDepth and boxDepthWhere (the
+  /// projection keeps vertices out of boxes, not the points between them: reported, the step
+  /// stands); a triangle more than max(dHat, radius / 2) inside a sphere or capsule (exact,
+  /// triangleShapeDistance) sets stats.crossing, naming the triangle, the obstacle and its speed
+  /// (the step fails).
   void finishSubstep(VectorX& x, const VectorX& xStart, double h, double massScale, ContactStats& stats);
   /// The displacement (per DOF, m) projection and friction gave x in this substep.
   const VectorX& correction() const { return correction_; }
@@ -54,7 +57,13 @@ class ProjectionContact {
 
  private:
   void applyFriction(VectorX& x, const VectorX& xStart);
-  void checkEdges(const VectorX& x, double h, ContactStats& stats);
+  /// The surface check of finishSubstep: boxes, then round obstacles.
+  void checkSurface(const VectorX& x, double h, ContactStats& stats);
+  /// The deepest point of a free triangle in box k, into stats.boxDepth and boxDepthWhere.
+  void measureBoxDepth(const VectorX& x, std::size_t k, ContactStats& stats);
+  /// The first free triangle more than the tolerance inside round obstacle k, as stats.crossing.
+  void checkRound(const VectorX& x, std::size_t k, double h, ContactStats& stats) const;
+  bool freeTriangle(const Triangle& t) const;
 
   std::shared_ptr<ObstacleSet> obstacles_;
   VectorX mass_;  // per vertex (kg)
@@ -62,7 +71,10 @@ class ProjectionContact {
   std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none
   VectorX normalPush_;            // per vertex: distance projected along normals this substep (m)
   VectorX correction_;            // per DOF: displacement by projection and friction (m)
-  std::vector<std::array<Index, 2>> edges_;  // the mesh's edges, if an obstacle has an edge distance
+  std::vector<Triangle> triangles_;  // the mesh's triangles, if a box or a round obstacle needs them
+  const std::vector<char>* pinned_ = nullptr;  // per DOF, from the last project()
+  Eigen::Matrix3Xd local_;                      // the vertices in a box's frame (measureBoxDepth)
+  std::vector<unsigned char> beyond_;           // per vertex: the box's face planes it is beyond
 };
 
 }  // namespace fem_cloth
