@@ -150,7 +150,6 @@ bool ContactModel::addBoxPairBarriers(const VectorX& x, Assembly& a) {
   PairBarrier b;
   double distance = 0.0;
   Eigen::Vector3d point;
-  Eigen::Matrix<double, 3, 4> X;
   std::array<Index, 3> cloth{};
   for (const BoxPair& pair : boxPairs_) {
     ++checks_;
@@ -160,7 +159,7 @@ bool ContactModel::addBoxPairBarriers(const VectorX& x, Assembly& a) {
     if (!b.active) continue;
     a.energy += b.energy;
     if (!wantGradient) continue;
-    const int count = boxPairPoints(x, pair, X, cloth);
+    const int count = boxPairVertices(pair, cloth);
     const int first = 4 - count;  // the cloth's slots in the pair
     Eigen::Vector3d g = Eigen::Vector3d::Zero();  // dE/dx summed over the cloth's side
     for (int i = 0; i < count; ++i) {

@@ -158,9 +158,8 @@ void ContactModel::measureBoxDepth(const VectorX& x, ContactStats& stats) const 
   // A grid of n divisions per triangle (66 points): a lower bound of the depth, the depth of a
   // point being the distance it would have to move to leave the box, min_i (h_i - |p_i|).
   constexpr int n = 10;
-  for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+  for (std::size_t k : boxes_) {
     const Shape& shape = (*obstacles_)[k].shape;
-    if (shape.type != ShapeType::Box) continue;
     const Eigen::Isometry3d& inverse = obstacles_->inverseEnd(k);
     for (Index t = 0; t < mesh_->numTriangles(); ++t) {
       const Triangle& tri = mesh_->triangles[static_cast<std::size_t>(t)];
@@ -1070,8 +1069,11 @@ void ContactModel::finishSubstep(const VectorX& x, const VectorX& x0, ContactSta
   stats.dissipated += here.dissipated;
   stats.stored = here.stored;
   if (stats.crossing.empty()) stats.crossing = surfaceCrossing(x);
-  if (stats.crossing.empty()) stats.crossing = boxCrossing(x);
-  if (!boxes_.empty()) measureBoxDepth(x, stats);
+  // The grid's depth is positive only where a triangle overlaps a box, which boxCrossing finds
+  // exactly: measured only then (for the failing substep's report).
+  const std::string intoBox = boxes_.empty() ? std::string() : boxCrossing(x);
+  if (stats.crossing.empty()) stats.crossing = intoBox;
+  if (!intoBox.empty()) measureBoxDepth(x, stats);
   pinned_ = nullptr;
 }
 
