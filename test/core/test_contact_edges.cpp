@@ -13,6 +13,8 @@
 //     definition, its points counted by hand, its promise (lattice points outside the grown shape
 //     keep the whole triangle outside the shape) by dense sampling, and the exact triangle
 //     distance that checks that promise after each substep.
+//   - the lattice points' friction: a plate on a rod touching it only between its vertices sticks
+//     and slides as Coulomb's law says for an incline.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -272,6 +274,69 @@ TEST(ContactSurfaceSamples, LatticeRadiusMatchesClosedFormsAndItsDefinition) {
   for (const auto& t : triangles) {
     const double rho = latticeRadius(t[0], t[1], t[2]);
     EXPECT_NEAR(rho * rho, bruteLatticeRadiusSquared(t[0], t[1], t[2]), 1e-5 * rho * rho);  // the grid
+  }
+}
+
+// Friction of the surface samples (lattice points) against a round obstacle: a stiff 10 cm
+// plate, 4 x 4 vertices (columns 33 mm apart), balanced on a horizontal rod (a capsule of radius
+// 5 mm along y) that runs under its centre line x = 5 cm, between two columns of vertices, so
+// that only lattice points touch it (the nearest vertices clear the rod by 12 mm). Gravity is
+// tilted along the rod by theta: by symmetry the contact is the rod's top line, its normal
+// vertical, so Coulomb's law for the plate is the incline's: it sticks below the friction angle
+// atan(mu) (creeping as IPC's smoothed friction does, below eps_v = 1e-3 m/s) and slides above with
+// g (sin theta - mu cos theta). Without friction on the lattice points it slides at g sin theta.
+TEST(ContactSurfaceSamples, PlateOnARodSticksBelowTheFrictionAngleAndSlidesAbove) {
+  const double mu = 0.5, frictionAngle = std::atan(mu), side = 0.1, radius = 5e-3, dHat = 2e-3, epsV = 1e-3;
+  const double kPi = std::acos(-1.0);
+  for (const std::string integrator : {"backward_euler", "bdf2"}) {
+    for (double offset : {-3.0, 3.0}) {
+      const double theta = frictionAngle + offset * kPi / 180.0;
+      Scene scene = gridScene(3, 4, side, integrator, 1000.0);
+      scene.bendingStiffness = 1.0;  // N m: the plate stays flat, off the rod's sides
+      scene.grid.origin = {0.0, 0.0, radius + 0.5 * dHat};
+      SceneObstacle rod;
+      rod.name = "rod";
+      rod.type = ShapeType::Capsule;
+      rod.center = Eigen::Vector3d(0.5 * side, 0.3, 0.0);
+      rod.orientation = Eigen::Vector3d(0.0, 0.5 * kPi, 0.5 * kPi);  // the axis along y
+      rod.radius = radius;
+      rod.length = 1.0;
+      rod.friction = mu;
+      scene.obstacles = {rod};
+      scene.contact.distance = dHat;
+      scene.contact.frictionVelocity = epsV;
+      scene.gravity = kG * Eigen::Vector3d(0.0, std::sin(theta), -std::cos(theta));
+      Simulation sim = mustBuild(scene);
+      const Simulator& s = *sim.simulator;
+      const double t1 = 0.1, t2 = 0.5;
+      double y1 = 0.0, v1 = 0.0;
+      ASSERT_EQ(run(sim, static_cast<int>(std::lround(t2 / scene.dt)), [&](int n, const StepReport&) {
+                  if (n == static_cast<int>(std::lround(t1 / scene.dt))) {
+                    y1 = massMean(s.model(), s.state().x).y();
+                    v1 = massMean(s.model(), s.state().v).y();
+                  }
+                }),
+                "")
+          << integrator;
+      // The plate is still on the rod's top, level, and the vertices never touched it.
+      const Eigen::Vector3d centre = massMean(s.model(), s.state().x);
+      EXPECT_NEAR(centre.x(), 0.5 * side, 1e-4) << integrator;
+      EXPECT_NEAR(centre.z(), radius + dHat, dHat) << integrator;
+      const double moved = centre.y() - y1, v2 = massMean(s.model(), s.state().v).y();
+      const double measured = (v2 - v1) / (t2 - t1);
+      const double a = kG * (std::sin(theta) - mu * std::cos(theta));
+      std::cout << integrator << ": " << theta * 180 / kPi << " deg (friction angle " << frictionAngle * 180 / kPi
+                << " deg): moved " << moved << " m in " << t2 - t1 << " s, acceleration " << measured
+                << " m/s^2 (Coulomb: " << std::max(a, 0.0) << ", frictionless: " << kG * std::sin(theta) << ")\n";
+      if (a < 0) {
+        // Sticking under the load ratio r = tan(theta) / mu: the creep of smoothed Coulomb,
+        // eps_v (1 - sqrt(1 - r)) (test_core_contact, SticksWithTheCreepOfSmoothedCoulomb).
+        const double creep = epsV * (1.0 - std::sqrt(1.0 - std::tan(theta) / mu));
+        EXPECT_NEAR(moved / (t2 - t1), creep, 0.05 * creep) << integrator;
+      } else {
+        EXPECT_NEAR(measured, a, 0.05 * a) << integrator;
+      }
+    }
   }
 }
 

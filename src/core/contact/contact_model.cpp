@@ -289,29 +289,25 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   frictionEps_ = settings_.frictionVelocity / gamma;
   // Lagged friction (Li et al. 2020, section 5.3): the normal force lambda of every contact at
   // the start of the substep, its tangent plane and the relative motion of the two sides.
-  const double dHat = settings_.distance;
   for (Index i = 0; i < mesh_->numVertices(); ++i) {
     if (!isFree(i)) continue;
+    const double one = 1.0;
     for (std::size_t k = 0; k < obstacles_->size(); ++k) {
-      if (!((*obstacles_)[k].friction > 0.0)) continue;
-      const SignedDistance sd = obstacles_->distance(k, vertex(x0, i), false);
-      if (!(sd.distance > 0.0 && sd.distance < dHat)) continue;
-      Friction f;
-      f.vertices[0] = i;
-      f.count = 1;
-      f.weights[0] = 1.0;
-      f.tangent = tangentBasis(sd.normal);
-      // The obstacle's surface point under the vertex moves with the obstacle; relative to it
-      // the vertex slides. Velocity is gamma (x - xc), so the obstacle's displacement enters
-      // divided by h gamma (1 for backward Euler).
-      const Eigen::Vector3d moved = obstacles_->poseEnd(k) * (obstacles_->inverseStart(k) * sd.closest);
-      f.offset = (moved - sd.closest) / (h * gamma);
-      const double s = sd.distance * sd.distance;
-      f.muLambda = (*obstacles_)[k].friction * kappa_ * mass_[i] *
-                   std::abs(barrier::first(s, sHat_)) * 2.0 * sd.distance;
-      f.obstacle = static_cast<int>(k);
-      f.point = moved;
-      friction_.push_back(f);
+      addObstacleFriction(k, vertex(x0, i), mass_[i], &i, &one, 1, h, gamma);
+    }
+  }
+  // The surface samples against round obstacles, as their barriers (addSampleBarriers): the
+  // sample point slides, its friction force splits over its vertices by the weights.
+  for (const SurfaceSample& s : samples_) {
+    if (!sampleTakesContact(s)) continue;
+    const Eigen::Vector3d p = samplePoint(x0, s);
+    for (std::size_t k = 0; k < obstacles_->size(); ++k) {
+      if (!round_[k]) continue;
+      const Shape& shape = (*obstacles_)[k].shape;
+      const double far = (p - obstacles_->poseStart(k).translation()).norm() -
+                         (shape.radius + shape.halfLength + obstacles_->margin(k));
+      if (far >= settings_.distance) continue;
+      addObstacleFriction(k, p, s.mass, s.vertices.data(), s.weights.data(), s.count, h, gamma);
     }
   }
   if (!boxes_.empty()) addBoxFriction(x0, h, gamma);
@@ -349,6 +345,32 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
   // The relative displacement of a friction contact is measured from xc.
   frictionOrigin_ = xc;
   vertexTablesFresh_ = false;
+}
+
+void ContactModel::addObstacleFriction(std::size_t k, const Eigen::Vector3d& p, double mass,
+                                       const Index* vertices, const double* weights, int count,
+                                       double h, double gamma) {
+  if (!((*obstacles_)[k].friction > 0.0)) return;
+  const SignedDistance sd = obstacles_->distance(k, p, false);
+  if (!(sd.distance > 0.0 && sd.distance < settings_.distance)) return;
+  Friction f;
+  f.count = count;
+  for (int i = 0; i < count; ++i) {
+    f.vertices[static_cast<std::size_t>(i)] = vertices[i];
+    f.weights[i] = weights[i];
+  }
+  f.tangent = tangentBasis(sd.normal);
+  // The obstacle's surface point under the point moves with the obstacle; relative to it the
+  // point slides. Velocity is gamma (x - xc), so the obstacle's displacement enters divided by
+  // h gamma (1 for backward Euler).
+  const Eigen::Vector3d moved = obstacles_->poseEnd(k) * (obstacles_->inverseStart(k) * sd.closest);
+  f.offset = (moved - sd.closest) / (h * gamma);
+  // The normal force of the point's barrier kappa m b(d^2) there.
+  const double s = sd.distance * sd.distance;
+  f.muLambda = (*obstacles_)[k].friction * kappa_ * mass * std::abs(barrier::first(s, sHat_)) * 2.0 * sd.distance;
+  f.obstacle = static_cast<int>(k);
+  f.point = moved;
+  friction_.push_back(f);
 }
 
 void ContactModel::addBoxFriction(const VectorX& x0, double h, double gamma) {

@@ -289,6 +289,11 @@ class ContactModel {
   double boxPairEpsX(const BoxPair& pair, const Eigen::Matrix<double, 3, 4>& X) const;
   /// beginSubstep's lagged friction of the box pairs.
   void addBoxFriction(const VectorX& x0, double h, double gamma);
+  /// Lagged friction of the point p of the cloth at the substep's start (a vertex, or a surface
+  /// sample: the weighted sum of `count` vertices) against obstacle k, if k has friction and p is
+  /// within dHat of it; mass: the m of the point's barrier kappa m b(d^2).
+  void addObstacleFriction(std::size_t k, const Eigen::Vector3d& p, double mass, const Index* vertices,
+                           const double* weights, int count, double h, double gamma);
   bool boxPairBarrier(const VectorX& x, const BoxPair& pair, bool wantGradient, bool wantHessian,
                       PairBarrier& out, double& distance, Eigen::Vector3d& point) const;
   /// The pairs whose box feature and cloth primitive (over x + t dx, t in [0, 1]; dx may be
