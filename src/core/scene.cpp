@@ -233,6 +233,7 @@ Status validateContactKeys(const Scene& s) {
   FEM_CLOTH_CHECK(inRange(s.contact.distance, 1e-6, 1.0, "contact.distance", "m"));
   FEM_CLOTH_CHECK(inRange(s.contact.stiffness, 0.0, 1e9, "contact.stiffness", "m/s^2"));
   FEM_CLOTH_CHECK(inRange(s.contact.frictionVelocity, 1e-8, 1.0, "contact.friction_velocity", "m/s"));
+  FEM_CLOTH_CHECK(inRange(s.contact.surfaceStretch, 1.0, 10.0, "contact.surface_stretch", ""));
   FEM_CLOTH_CHECK(inRange(s.contact.selfFriction, 0.0, kMaxFriction, "contact.self_friction", ""));
   if (sceneHasContact(s)) {
     if (meshDim(s) != 3) {

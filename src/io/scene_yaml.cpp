@@ -359,7 +359,7 @@ Status readFrames(const MapReader& root, Scene& s) {
 
 Status readContact(const YAML::Node& node, Scene& s) {
   MapReader r(node, "contact",
-              {"distance", "stiffness", "self_collision", "self_friction", "friction_velocity"});
+              {"distance", "stiffness", "self_collision", "self_friction", "friction_velocity", "surface_stretch"});
   FEM_CLOTH_CHECK(r.check());
   FEM_CLOTH_CHECK(r.number("distance", s.contact.distance));
   if (r.has("stiffness")) {
@@ -381,6 +381,7 @@ Status readContact(const YAML::Node& node, Scene& s) {
   }
   FEM_CLOTH_CHECK(r.number("self_friction", s.contact.selfFriction));
   FEM_CLOTH_CHECK(r.number("friction_velocity", s.contact.frictionVelocity));
+  FEM_CLOTH_CHECK(r.number("surface_stretch", s.contact.surfaceStretch));
   return Status::success();
 }
 

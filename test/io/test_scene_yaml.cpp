@@ -552,6 +552,7 @@ TEST(SceneYaml, EveryPhysicalKeyHasASaneRange) {
       {"contact.distance", "m", "1e-6", "1e-2", "0", "1.5"},
       {"contact.stiffness", "m/s^2", "1e-3", "1e9", "", "2e9"},
       {"contact.friction_velocity", "m/s", "1e-8", "1", "0", "2"},
+      {"contact.surface_stretch", "", "1", "10", "0.9", "11"},
       {"contact.self_friction", "", "0", "10", "-0.1", "11"},
   };
   for (const Case& c : cases) {

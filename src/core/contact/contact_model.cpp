@@ -45,10 +45,6 @@ std::string vertexList(const SurfaceSample& sample) {
   return out;
 }
 
-// The surface samples' lattice is fine enough for triangles stretched this much beyond their
-// rest shape (sampleSurface).
-constexpr double kStretchAllowance = 1.5;
-
 }  // namespace
 
 ContactModel::ContactModel(const Model& model, std::shared_ptr<ObstacleSet> obstacles,
@@ -96,7 +92,7 @@ void ContactModel::sampleSurface(const Model& model) {
     rho = std::max(rho, latticeRadius(vertex3(mesh, mesh.restPositions, t[0]), vertex3(mesh, mesh.restPositions, t[1]),
                                       vertex3(mesh, mesh.restPositions, t[2])));
   }
-  rho *= kStretchAllowance;
+  rho *= settings_.surfaceStretch;
   const double grow = 0.25 * settings_.distance;
   const double rhoTarget = std::sqrt(grow * (2.0 * thinnest + grow));
   divisions_ = std::clamp(static_cast<int>(std::ceil(rho / rhoTarget)), 1, kMaxDivisions);
@@ -117,11 +113,13 @@ std::string ContactModel::surfaceCrossing(const VectorX& x) const {
   for (std::size_t k = 0; k < obstacles_->size(); ++k) {
     const std::string crossing = surfaceCrossing(x, k);
     if (crossing.empty()) continue;
-    char text[240];
+    char text[400];
     std::snprintf(text, sizeof text,
                   " (moving at %.3g m/s), although its surface samples (%d divisions) keep outside it grown by "
-                  "%.3g mm: the triangle is stretched beyond the %.0f %% the lattice allows for",
-                  obstacleSpeed(k), divisions_, 1e3 * obstacles_->margin(k), 100.0 * (kStretchAllowance - 1.0));
+                  "%.3g mm: the triangle is stretched beyond the %.0f %% the lattice allows for "
+                  "(contact.surface_stretch %.3g; a larger value takes more samples or grows the obstacles more)",
+                  obstacleSpeed(k), divisions_, 1e3 * obstacles_->margin(k), 100.0 * (settings_.surfaceStretch - 1.0),
+                  settings_.surfaceStretch);
     return crossing + text;
   }
   return {};

@@ -30,6 +30,10 @@ struct ContactSettings {
   bool selfCollision = false;
   double selfFriction = 0.0;       ///< mu of cloth on cloth
   double frictionVelocity = 1e-3;  ///< eps_v (m/s): slower relative sliding counts as sticking
+  /// How far (size / rest size) a triangle may be stretched with the barrier integrators while
+  /// the surface samples still keep every point of it out of spheres and capsules
+  /// (surface_samples.h): larger takes more samples per triangle, or grows the obstacles more.
+  double surfaceStretch = 1.5;
 };
 
 /// The force the cloth exerts on an obstacle (N) and its moment about the simulation frame's
