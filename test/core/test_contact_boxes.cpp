@@ -8,7 +8,8 @@
 //   - a cloth draped over a table for 1 s and a 2 cm square bar rolled 45 degrees (its top an
 //     edge) rising under a pinned cloth: in every state no point of the cloth (vertices, 20
 //     points on every edge, a grid inside every triangle) is inside the box, the box written out
-//     here from the scene's numbers (rotation Rz(yaw) Ry(pitch) Rx(roll), REP-103).
+//     here from the scene's numbers (rotation Rz(yaw) Ry(pitch) Rx(roll), REP-103);
+//   - a strip half over a table's edge slides off or holds as the capstan equation says.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -323,6 +324,48 @@ TEST(ContactBoxes, TableDrapeKeepsTheSurfaceOutOfTheTable) {
   EXPECT_LT(lowest, 0.7);
   std::cout << "table drape: closest approach " << -deepest.depth << " m (" << deepest.where << "), lowest vertex "
             << lowest << " m\n";
+}
+
+// The capstan equation (Euler-Eytelwein) at a table's edge: a strip half on the table, half
+// hanging over its edge (config/table_drape.yaml's table, a 0.8 x 0.04 m strip from x = 0.1 m,
+// the edge at x = 0.5 m). The table's top can hold at most mu W_top against the hanging half's
+// weight W_hang, and the 90-degree wrap over the edge multiplies that by e^(mu pi / 2); with
+// W_hang = W_top the strip holds only if mu e^(mu pi / 2) >= 1, mu* = 0.4745 (found here by
+// bisection). 15 % below mu* it slides off the table within 3 s; 15 % above, it stays (it may
+// slip a little as it falls onto the table and swings). 41 vertices along the strip (2 cm
+// cells); the shipped 21 (4 cm) lock over the edge: they hold at mu 0.40 (docs/contact.md).
+TEST(ContactBoxes, StripOverATableEdgeSlidesOrHoldsAsTheCapstanEquationSays) {
+  double lo = 0.0, hi = 1.0;
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (mid * std::exp(mid * kPi / 2.0) < 1.0 ? lo : hi) = mid;
+  }
+  const double critical = 0.5 * (lo + hi);
+  for (double factor : {0.85, 1.15}) {
+    Scene scene = configScene("table_drape.yaml");
+    scene.grid.rows = 3;
+    scene.grid.cols = 41;
+    scene.grid.height = 0.04;
+    scene.grid.origin = {0.1, -0.02, 0.8};
+    ASSERT_EQ(scene.obstacles[0].name, "table");
+    scene.obstacles[0].friction = factor * critical;
+    Simulation sim = mustBuild(scene);
+    const Simulator& s = *sim.simulator;
+    ASSERT_EQ(run(sim, static_cast<int>(std::lround(3.0 / scene.dt))), "") << "mu " << factor * critical;
+    double back = 1e9, highest = -1e9;  // the strip's end farthest from the edge; its top
+    for (Index v = 0; v < s.model().numVertices(); ++v) {
+      back = std::min(back, vertexPosition(s, v).x());
+      highest = std::max(highest, vertexPosition(s, v).z());
+    }
+    std::cout << "mu " << factor * critical << " (" << factor << " mu*, mu* = " << critical
+              << "): after 3 s the strip's back end is at x = " << back
+              << " m (started at 0.1, edge at 0.5), its highest point at z = " << highest << " m (top 0.75)\n";
+    if (factor < 1.0) {
+      EXPECT_LT(highest, 0.7) << "slides off the table";
+    } else {
+      EXPECT_LT(back, 0.15) << "holds";
+    }
+  }
 }
 
 // test/data/contact/ridge.yaml: a 2 cm square bar rolled 45 degrees (roll 0.7854, yaw 0.3), its
