@@ -300,7 +300,7 @@ void ContactModel::beginSubstep(const VectorX& x0, const VectorX& xc, double gam
     if (!sampleTakesContact(s)) continue;
     const Eigen::Vector3d p = samplePoint(x0, s);
     for (std::size_t k = 0; k < obstacles_->size(); ++k) {
-      if (!round_[k]) continue;
+      if (!round_[k] || !((*obstacles_)[k].friction > 0.0)) continue;  // no bound for no friction
       const Shape& shape = (*obstacles_)[k].shape;
       const double far = (p - obstacles_->poseStart(k).translation()).norm() -
                          (shape.radius + shape.halfLength + obstacles_->margin(k));
