@@ -154,6 +154,26 @@ TEST(LiveChange, ObstacleEntriesThatContradictTheCommandAreRefused) {
   EXPECT_FALSE(isLiveKey("obstacles.2.shape"));
 }
 
+// Issue 30: an obstacle added to a running simulation passes the scene's checks, the explicit
+// steppers' pinch check among them (contact/pinch.h). With symplectic Euler and a ball already
+// there, a finger on a tf frame could pinch the cloth against the ball at run time: refused,
+// naming the pair and the frame; backward Euler takes it.
+TEST(LiveChange, AnObstacleOnATfFrameIsRefusedWhereTheSteppersCannotTakeAPinch) {
+  const std::string ball = "obstacles: [{name: ball, type: sphere, center: [0.2, 0.2, -0.5], radius: 0.1}]\n";
+  const std::string finger = "{type: box, center: [0, 0, 0], size: [0.02, 0.02, 0.02], frame: gripper}";
+  YAML::Node doc = YAML::Load(std::string(kScene) + ball);
+  doc["integrator"]["name"] = "symplectic_euler";
+  const Expected<LiveChange> refused = applyObstacleChange(doc, ObstacleEdit::Add, "finger", finger);
+  ASSERT_FALSE(refused.ok());
+  for (const std::string m : {"integrator symplectic_euler", "obstacles 'finger' and 'ball'", "tf frame 'gripper'"}) {
+    EXPECT_NE(refused.error().find(m), std::string::npos) << refused.error() << "\nlacks " << m;
+  }
+  doc["integrator"]["name"] = "backward_euler";
+  const Expected<LiveChange> taken = applyObstacleChange(doc, ObstacleEdit::Add, "finger", finger);
+  ASSERT_TRUE(taken.ok()) << taken.error();
+  EXPECT_EQ(taken->scene.obstacles.size(), 2u);
+}
+
 // Issue 31: the run's energy scale is not inflated by the live change it checks. A 1 kg, 1 m
 // cloth hanging from two corners under symplectic Euler, made 1000 x stiffer after 1 s: at the same
 // shape StVK's strain energy is 1000 x (999 x of it booked as live work), about 98 J against the

@@ -61,6 +61,11 @@ std::optional<ObstaclePinch> findPinch(const std::vector<Obstacle>& obstacles, d
   for (std::size_t i = 0; i < obstacles.size(); ++i) {
     for (std::size_t j = i + 1; j < obstacles.size(); ++j) {
       const Obstacle &a = obstacles[i], &b = obstacles[j];
+      if (!a.frame.empty() || !b.frame.empty()) {
+        const Obstacle& follower = a.frame.empty() ? b : a;
+        if (!found) found = ObstaclePinch{follower.name, (&follower == &a ? b : a).name, 0.0, 0.0, follower.frame};
+        continue;
+      }
       if (!a.scripted() && !b.scripted()) continue;
       if (samples[i].empty()) samples[i] = surfaceSamples(a.shape);
       if (samples[j].empty()) samples[j] = surfaceSamples(b.shape);
@@ -83,7 +88,9 @@ std::optional<ObstaclePinch> findPinch(const std::vector<Obstacle>& obstacles, d
         double t = t0;
         for (int k = 0; k < kMaxSamples; ++k) {
           const double gap = gapAt(a, samples[i], b, samples[j], t);
-          if (gap < narrowest && (!found || gap < found->gap)) found = ObstaclePinch{a.name, b.name, gap, t};
+          if (gap < narrowest && (!found || !found->frame.empty() || gap < found->gap)) {
+            found = ObstaclePinch{a.name, b.name, gap, t, ""};
+          }
           if (!(speed > 0.0)) break;
           t += std::max(gap - narrowest, 0.25 * narrowest) / speed;
           if (t >= t1) break;
@@ -108,10 +115,17 @@ std::optional<ObstaclePinch> findScenePinch(const Scene& scene) {
 }
 
 std::string pinchText(const ObstaclePinch& pinch, double contactDistance) {
+  const std::string pair = "obstacles '" + pinch.first + "' and '" + pinch.second + "'";
+  if (!pinch.frame.empty()) {
+    char width[32];
+    std::snprintf(width, sizeof width, "%.2f mm", 2e3 * contactDistance);
+    return pair + " may leave a slot narrower than 2 contact.distance (" + width + "): '" + pinch.first +
+           "' follows tf frame '" + pinch.frame + "', whose motion is known only at run time";
+  }
   char text[160];
   std::snprintf(text, sizeof text, " leave a slot of %.2f mm at t = %.2f s, narrower than 2 contact.distance (%.2f mm)",
                 1e3 * pinch.gap, pinch.time, 2e3 * contactDistance);
-  return "obstacles '" + pinch.first + "' and '" + pinch.second + "'" + text;
+  return pair + text;
 }
 
 }  // namespace fem_cloth

@@ -81,7 +81,8 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
        [](const IntegratorCapabilities& k, const Scene&) { return k.contact == ContactMethod::Barriers; },
        "a pinch between obstacles: " + (pinch ? pinchText(*pinch, s.contact.distance) : std::string()) +
            ", where its projection cannot keep a vertex contact.distance from both",
-       "", "keep the obstacles 2 contact.distance apart"},
+       "", pinch && !pinch->frame.empty() ? "script their motion (velocity, trajectory) instead of a tf frame"
+                                           : "keep the obstacles 2 contact.distance apart"},
   };
 }
 
