@@ -589,7 +589,7 @@ std::string boxDepthWarning(const SimulationDriver::BoxDepth& deepest) {
   if (deepest.depth <= 0.0) return std::string();
   return "the cloth's surface reached " + numberText(1e3 * deepest.depth) + " mm into " + deepest.where +
          " between its vertices (step " + std::to_string(deepest.step) +
-         "): boxes keep vertices out, not edges and triangles (docs/contact.md)";
+         "): only the vertices were kept out there, not edges and triangles (docs/contact.md)";
 }
 
 void setCommandStats(StepStats& msg, const std::function<CommandCounts(CommandTopic)>& counts) {

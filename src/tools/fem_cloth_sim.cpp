@@ -196,9 +196,9 @@ const char* runStatus(const std::string& failure, const EnergyReport& e, const B
 }
 
 // The summary's line, and the warning, when the cloth's surface reached into a box between its
-// vertices (docs/contact.md, Limits). The projection of the explicit steppers keeps vertices out
-// and measures it exactly; the barriers' contact model keeps the surface out and measures a
-// lower bound.
+// vertices, or with the explicit steppers into any obstacle (docs/contact.md, Limits). The
+// projection of the explicit steppers keeps vertices out and measures it exactly; the barriers'
+// contact model keeps the surface out and measures a lower bound for boxes.
 std::string boxDepthText(const StepTotals& t, const std::string& integrator) {
   const Expected<const IntegratorEntry*> entry = findIntegrator(integrator);
   const bool exact = entry && (*entry)->supports.contact == ContactMethod::Projection;
@@ -206,7 +206,7 @@ std::string boxDepthText(const StepTotals& t, const std::string& integrator) {
   text << std::setprecision(3) << "the cloth's surface reached " << 1e3 * t.boxDepth << " mm into " << t.boxDepthWhere
        << " between its vertices (step " << t.boxDepthStep
        << (exact ? "; exact: every triangle after every substep" : "; at least: a grid of points per triangle")
-       << (exact ? "): the explicit steppers keep vertices out of boxes, not edges and triangles"
+       << (exact ? "): the explicit steppers keep vertices out of obstacles, not edges and triangles"
                  : "): the box barriers were bypassed")
        << " (docs/contact.md, Limits)";
   return text.str();

@@ -235,7 +235,8 @@ TEST(ProjectionSurfaceCheck, ExactBoxDepthOfASheetFoldedOverAnEdge) {
 // sqrt(5) / 3 x 5 cm = 3.7 cm from its farthest vertex, sqrt(2) x 5 cm / 3 = 2.36 cm from the
 // others), but its middle is the radius, 20 mm, inside: more than max(d̂, radius / 2) = 10 mm,
 // the substep fails naming the triangle and the ball. 1.5 cm lower the ball reaches 5 mm into
-// the sheet, within the tolerance: no failure.
+// the sheet, within the tolerance: no failure, but the depth is measured and reported (as a
+// box's), 5 mm into triangle 0 (the deepest; the ball's top is in its middle).
 TEST(ProjectionSurfaceCheck, BallThroughATriangleBetweenItsVertices) {
   Obstacle ball;
   ball.name = "ball";
@@ -256,8 +257,11 @@ TEST(ProjectionSurfaceCheck, BallThroughATriangleBetweenItsVertices) {
   EXPECT_NE(through.crossing.find("is 20.000 mm inside obstacle 'ball' (moving at 0 m/s), more than the 10.000 mm"),
             std::string::npos)
       << through.crossing;
-  EXPECT_EQ(through.boxDepth, 0.0);
+  EXPECT_NEAR(through.boxDepth, 0.02, 1e-12);
   ball.geometry.translation() = centroid - Eigen::Vector3d(0.0, 0.0, 0.015);
   Projection lower = projection(ball);
-  EXPECT_TRUE(substep(lower, x, pinned).crossing.empty());
+  const ContactStats shallow = substep(lower, x, pinned);
+  EXPECT_TRUE(shallow.crossing.empty()) << shallow.crossing;
+  EXPECT_NEAR(shallow.boxDepth, 0.005, 1e-12);
+  EXPECT_EQ(shallow.boxDepthWhere, "triangle 0 in sphere 'ball'");
 }
