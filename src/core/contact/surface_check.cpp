@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include "fem_cloth/core/contact/box_features.h"
+
 namespace fem_cloth {
 
 namespace {
@@ -49,9 +51,7 @@ bool inTriangle(const Eigen::Vector2d& l) {
 
 bool triangleBeyondAFace(const Eigen::Vector3d& halfExtents, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
                          const Eigen::Vector3d& c) {
-  const Eigen::Array3d h = halfExtents.array();
-  return ((a.array() > h) && (b.array() > h) && (c.array() > h)).any() ||
-         ((a.array() < -h) && (b.array() < -h) && (c.array() < -h)).any();
+  return box::beyondOneFace(halfExtents, a, b, c);  // the barriers' box contact's own test
 }
 
 bool triangleSeparatedFromBox(const Eigen::Vector3d& halfExtents, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
