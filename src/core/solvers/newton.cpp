@@ -13,13 +13,6 @@ namespace {
 using Matrix = LinearSolver::Matrix;
 using Clock = std::chrono::steady_clock;
 
-/// Iterations, simplified ones included, per factorised iteration allowed (NewtonSettings::maxIterations).
-constexpr int kChordIterationsFactor = 4;
-/// A simplified step is lengthened by 1 / (1 - theta) (at most kMaxExtrapolation) when the
-/// contraction theta is above kExtrapolateFrom and within kSteadyContraction of the one before.
-constexpr double kExtrapolateFrom = 0.5;
-constexpr double kSteadyContraction = 0.05;
-constexpr double kMaxExtrapolation = 10.0;
 /// A correction at most this fraction of its tolerance is accepted after a move that did not
 /// contract (converged()).
 constexpr double kNegligibleError = 1e-2;
@@ -71,41 +64,18 @@ bool NewtonSolver::converged(const NewtonProblem& problem, const NewtonIterate& 
   lap(clock, outcome.times.solve);
   if (!solved) return false;
   // Where Newton converges only linearly, the corrections still to come add up (acceptance.h).
-  // After an extrapolated simplified step, the move was lengthened to 1 / (1 - theta) corrections
-  // on the contraction theta measured before it, so the correction left says nothing of the
-  // iteration's contraction (traced, 9x9 hanging cloth, backward Euler, dt 100 s: theta 0.06
-  // after a 4.66x step, accepted with 4.05x the promised error): that contraction stands.
   outcome.displacement = problem.error(it, correction_);
   const DisplacementError& e = outcome.displacement;
   const bool negligible = e.relative <= kNegligibleError && e.energy <= kNegligibleError * e.energyTolerance;
-  const double corrected = correction_.norm();
-  const double theta = moved > 0.0 ? corrected / moved : 0.0;
-  contraction_ = extrapolatedMove_ ? std::max(theta, lastTheta_) : theta;
-  outcome.displacement.scale(moved > 0.0 ? remainingErrorFactor(contraction_, 1.0) : 1.0);
-  // The correction is a descent direction by the factorisation in hand: the next step
-  // (simplified Newton), unless that matrix has stopped contracting the error. Where the
-  // contraction theta holds steady (a slow mode the projected Hessian overstates: compressed
-  // cloth, whose negative curvature the projection clamps), the corrections still to come add up
-  // to 1 / (1 - theta) of this one, mostly along it: the step goes that far (the line search
-  // backtracks if Phi does not decrease). Only while the iteration contracts: this move and the
-  // one before (a simplified step after a move that did not contract, at dt 10 s, needed a new
-  // factorisation after nearly every one and drove the iterate away).
-  chord_ = settings_.chordContraction > 0.0 && moved > 0.0 && theta <= settings_.chordContraction &&
-           lastTheta_ <= settings_.chordContraction;
-  extrapolate_ = 1.0;
-  if (chord_ && theta > kExtrapolateFrom && std::abs(theta - lastTheta_) < kSteadyContraction) {
-    extrapolate_ = std::min(1.0 / (1.0 - theta), kMaxExtrapolation);
-  }
+  outcome.displacement.scale(remainingErrorFactor(correction_.norm(), moved));
   // 1 / (1 - theta) estimates the error left only where the iteration contracts: one move that
-  // contracts right after one that did not (theta >= 1) shows no such thing (traced, dt 10 s with
-  // simplified steps: theta 0.42 right after 11.3 and 4.47 was accepted, its true error 5.34x
-  // the bound; on main, theta 0.30 after 52 happened to be 0.25x). Not accepted: the next move
-  // measures again. Unless the correction is negligible (the moves of round-off, as in a rigid
-  // fall, have theta about 1 forever): the projected Hessian understated the error 20x at most
-  // in those traces.
+  // contracts right after one that did not (theta >= 1) shows no such thing (traced, 9x9 hanging
+  // cloth, backward Euler, dt 10 s: theta 0.30 right after 52 was accepted, 0.25x the promised
+  // error by luck; with simplified Newton steps, branch newt43, theta 0.42 after 11.3 and 4.47
+  // was 5.34x). Not accepted: the next move measures again. Unless the correction is negligible
+  // (the moves of round-off, as in a rigid fall, have theta about 1 forever).
   const bool contracting = lastTheta_ < 1.0 || negligible;
-  lastTheta_ = theta;
-  lastMoved_ = moved;
+  lastTheta_ = moved > 0.0 ? correction_.norm() / moved : 0.0;
   return contracting && outcome.displacement.within();
 }
 
@@ -138,26 +108,6 @@ bool NewtonSolver::newtonStep(const NewtonProblem& problem, const NewtonIterate&
   return solved;
 }
 
-bool NewtonSolver::confirmed(const NewtonProblem& problem, const NewtonIterate& it, NewtonOutcome& outcome) {
-  if (!simplifiedMove_) return true;  // the factorisation is the iterate before's: as trusted as Newton's
-  // Measured by a factorisation older than the iterate before, the correction may understate the
-  // error (a huge step, whose Hessian changes from iterate to iterate): the Newton correction by
-  // the projected Hessian at `it` itself decides; if it is too large, it is the next step.
-  ++outcome.iterations;
-  if (!newtonStep(problem, it, outcome.times)) {
-    outcome.ok = false;
-    outcome.error = "the linear solve (" + solver_->name() + ") failed";
-    return true;
-  }
-  outcome.displacement = problem.error(it, dx_);
-  const double theta = lastMoved_ > 0.0 ? dx_.norm() / lastMoved_ : 0.0;
-  outcome.displacement.scale(remainingErrorFactor(std::max(theta, contraction_), 1.0));
-  if (outcome.displacement.within()) return true;
-  chord_ = false;
-  pending_ = true;
-  return false;
-}
-
 NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& it, bool acceptAtStart) {
   IncrementalPotential& potential = *problem.potential;
   const double h = potential.frame().h;
@@ -170,16 +120,11 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     outcome.forces = true;
     return outcome;
   };
-  chord_ = pending_ = false;
-  lastTheta_ = contraction_ = 0.0;
+  lastTheta_ = 0.0;
   while (true) {
-    // maxIterations bounds the factorised iterations; the cheap simplified ones, up to
-    // kChordIterationsFactor times as many in all.
-    if (outcome.iterations - outcome.chordSteps >= settings_.maxIterations ||
-        outcome.iterations >= kChordIterationsFactor * settings_.maxIterations) {
+    if (outcome.iterations >= settings_.maxIterations) {
       std::ostringstream msg;
-      msg << "Newton did not converge in " << outcome.iterations << " iterations (" << outcome.chordSteps
-          << " of them with an earlier factorisation; last step "
+      msg << "Newton did not converge in " << outcome.iterations << " iterations (last step "
           << lastStep / h << " m/s";
       const DisplacementError& e = outcome.displacement;
       if (e.measured() && !(e.relative <= 1.0)) {
@@ -192,15 +137,8 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
       msg << ")";
       return fail(msg.str());
     }
-    simplifiedMove_ = chord_;
-    extrapolatedMove_ = chord_ && !pending_ && extrapolate_ != 1.0;
-    if (pending_) {
-      pending_ = false;  // dx_: the Newton step confirmed() solved for
-    } else if (++outcome.iterations; chord_) {
-      dx_.swap(correction_);  // the simplified Newton step (converged() solved for it)
-      if (extrapolate_ != 1.0) dx_ *= extrapolate_;
-      ++outcome.chordSteps;
-    } else if (!newtonStep(problem, it, outcome.times)) {
+    ++outcome.iterations;
+    if (!newtonStep(problem, it, outcome.times)) {
       outcome.ok = false;
       outcome.error = "the linear solve (" + solver_->name() + ") failed";
       return outcome;
@@ -227,7 +165,7 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
         it.phi = potential.value(it.x, it.terms);
       }
       lap(clock, outcome.times.search);
-      if (converged(problem, it, dx_.norm(), outcome) && confirmed(problem, it, outcome)) break;
+      if (converged(problem, it, dx_.norm(), outcome)) break;
       continue;
     }
     const LineSearch::Outcome found = search_.search(
@@ -236,16 +174,14 @@ NewtonOutcome NewtonSolver::solve(const NewtonProblem& problem, NewtonIterate& i
     lap(clock, outcome.times.search);
     if (!found.moved) {
       // No measurable decrease of Phi: at its minimum to round-off, if the error is small.
-      if (converged(problem, it, 0.0, outcome) && confirmed(problem, it, outcome)) break;
-      if (simplifiedMove_) continue;  // a new factorisation next (converged() left chord_ false)
+      if (converged(problem, it, 0.0, outcome)) break;
       std::ostringstream msg;
       msg << "the line search found no decrease of the incremental potential after "
           << settings_.maxBacktracks << " backtracks";
       return fail(msg.str());
     }
-    if (converged(problem, it, found.fraction * dx_.norm(), outcome) && confirmed(problem, it, outcome)) break;
+    if (converged(problem, it, found.fraction * dx_.norm(), outcome)) break;
   }
-  if (!outcome.ok) return outcome;
   if (!it.x.allFinite()) {
     outcome.ok = false;
     outcome.error = "the Newton iterate became non-finite";

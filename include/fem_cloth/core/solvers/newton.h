@@ -17,14 +17,8 @@
 // triangular solves, not a factorisation. Where the iterations converge only linearly, the
 // correction is scaled by 1 / (1 - theta), theta its ratio to the move before
 // (remainingErrorFactor()); an iterate is accepted only if the move before it contracted too
-// (theta < 1), since a single contracting move after a diverging one shows no contraction, and
-// after a lengthened simplified step the contraction measured before it stands. That correction
-// is also the next step while the factorisation still contracts it, this move and the one before
-// (NewtonSettings::chordContraction: simplified Newton, Hairer & Wanner IV.8), lengthened by
-// 1 / (1 - theta) where the contraction holds steady: on the 65x65 hanging cloth the projected
-// Hessian of the compressed middle makes Newton converge linearly (theta ~0.9 with a fresh
-// factorisation too), so refactorising there bought nothing (docs/performance.md, 2026-12-07).
-// A failed solve leaves the iterate where it stopped: the caller rolls back.
+// (theta < 1), since a single contracting move after a diverging one shows no contraction. A
+// failed solve leaves the iterate where it stopped: the caller rolls back.
 #pragma once
 
 #include <functional>
@@ -47,10 +41,6 @@ struct NewtonSettings {
   double tolerance = 1e-3;
   int maxBacktracks = 40;
   double armijo = 1e-4;  ///< sufficient-decrease constant of the line search
-  /// Simplified Newton: while the factorised Hessian of an earlier iterate contracts the
-  /// correction to at most this fraction of the move before, the correction converged() solved
-  /// for is the next step, without assembling and factorising anew (0: always refactorise).
-  double chordContraction = 0.0;
   LinearSolverSettings linear;
 };
 
@@ -74,7 +64,6 @@ struct NewtonOutcome {
   DisplacementError displacement;  ///< the error last measured (not measured: no move yet)
   int iterations = 0;
   int backtracks = 0;
-  int chordSteps = 0;  ///< of the iterations, the ones that reused the factorisation
   NewtonTimes times;
 };
 
@@ -108,18 +97,7 @@ class NewtonSolver {
   std::unique_ptr<LinearSolver> solver_;
   LineSearch search_;
   VectorX dx_, rhs_, correction_;
-  /// After converged() found `it` converged: true if that measure may be trusted, else (the move
-  /// was a simplified step) the Newton correction at `it` decides, and is the next step if too large.
-  bool confirmed(const NewtonProblem& problem, const NewtonIterate& it, NewtonOutcome& outcome);
-
-  bool chord_ = false;  ///< the next step is correction_ (simplified Newton)
-  bool simplifiedMove_ = false;  ///< the move being made is a simplified step
-  bool pending_ = false;  ///< dx_ holds the next step, solved for by confirmed()
-  double lastTheta_ = 0.0;    ///< the contraction the last correction measured
-  double lastMoved_ = 0.0;    ///< the length of the move converged() last measured (m)
-  bool extrapolatedMove_ = false;  ///< the move being made is a lengthened simplified step
-  double contraction_ = 0.0;  ///< the contraction converged() last assumed for the error left
-  double extrapolate_ = 1.0;  ///< the next simplified step's length, in corrections
+  double lastTheta_ = 0.0;  ///< the contraction (correction / move) converged() last measured
   std::vector<Eigen::Triplet<double>> outsidePattern_;
   LinearSolver::Matrix extra_, system_;
 };
