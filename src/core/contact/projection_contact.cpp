@@ -182,8 +182,8 @@ void ProjectionContact::checkRound(const VectorX& x, std::size_t k, double h, Co
   // vertices held at dHat (the 7 cm diagonal of a 9 x 9, 0.4 m cloth over a 0.1 m ball,
   // test_core_contact, 6 mm below them), a triangle's inside a little more.
   // Any depth is measured (the deepest goes into stats.boxDepth and boxDepthWhere, with the
-  // boxes', and makes the run's status a warning): a cloth held by its vertices over a ball
-  // cells wider than the ball reaches far into it and was reported "ok" (issue 30: 35 mm into
+  // boxes', and makes the run's status a warning): a cloth whose cells are wide against the ball
+  // reaches far into it between its vertices, and was reported "ok" (issue 30: 35 mm into
   // test/data/contact/ball.yaml's 0.1 m ball rising at 1 m/s, with symplectic Euler).
   const ObstacleSet& obstacles = *obstacles_;
   const Shape& shape = obstacles[k].shape;
