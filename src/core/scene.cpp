@@ -234,6 +234,9 @@ Status validateContactKeys(const Scene& s) {
   FEM_CLOTH_CHECK(inRange(s.contact.stiffness, 0.0, 1e9, "contact.stiffness", "m/s^2"));
   FEM_CLOTH_CHECK(inRange(s.contact.frictionVelocity, 1e-8, 1.0, "contact.friction_velocity", "m/s"));
   FEM_CLOTH_CHECK(inRange(s.contact.surfaceStretch, 1.0, 10.0, "contact.surface_stretch", ""));
+  if (s.contact.surfaceTolerance >= 0.0) {  // negative: auto (contact.distance)
+    FEM_CLOTH_CHECK(inRange(s.contact.surfaceTolerance, 0.0, 1.0, "contact.surface_tolerance", "m"));
+  }
   FEM_CLOTH_CHECK(inRange(s.contact.selfFriction, 0.0, kMaxFriction, "contact.self_friction", ""));
   if (sceneHasContact(s)) {
     if (meshDim(s) != 3) {
@@ -436,8 +439,6 @@ Expected<std::vector<Index>> resolveSelection(const VertexSelection& sel, const 
   return out;
 }
 
-namespace {
-
 Expected<Mesh> buildMesh(const Scene& s) {
   if (s.meshType == MeshType::Grid) return makeGrid(s.grid);
   if (s.meshType == MeshType::Obj) return loadObj(meshFilePath(s), s.dim);
@@ -445,6 +446,8 @@ Expected<Mesh> buildMesh(const Scene& s) {
   mesh.dim = s.dim;
   return mesh;
 }
+
+namespace {
 
 // The contact distance dHat is a gap the cloth keeps from obstacles and from itself: one larger
 // than the mesh's shortest edge keeps the cloth floating coarser than it is resolved, and with
@@ -597,7 +600,7 @@ Status addContact(const Scene& scene, const Model& model, const VectorX& x,
     }
     case ContactMethod::Projection:
       simulator.setContact(obstacles, nullptr,
-                           std::make_unique<ProjectionContact>(model, obstacles, scene.contact.distance));
+                           std::make_unique<ProjectionContact>(model, obstacles, scene.contact));
       break;
     case ContactMethod::None:  // validateScene refused the scene's contact (checkIntegratorSupports)
       return Error{"integrator.name: " + scene.integrator + " handles no contact"};

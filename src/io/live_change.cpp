@@ -13,7 +13,7 @@ const std::vector<std::string>& liveKeys() {
       "material.youngs_modulus", "material.poisson_ratio", "material.mu",       "material.lambda",
       "bending.stiffness",       "damping.mass",           "damping.stiffness", "gravity",
       "contact.self_friction",   "air.density",            "air.normal_drag",   "air.tangential_drag",
-      "air.wind"};
+      "air.wind",                "contact.surface_tolerance"};
   return keys;
 }
 

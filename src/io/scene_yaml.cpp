@@ -359,7 +359,8 @@ Status readFrames(const MapReader& root, Scene& s) {
 
 Status readContact(const YAML::Node& node, Scene& s) {
   MapReader r(node, "contact",
-              {"distance", "stiffness", "self_collision", "self_friction", "friction_velocity", "surface_stretch"});
+              {"distance", "stiffness", "self_collision", "self_friction", "friction_velocity", "surface_stretch",
+               "surface_tolerance"});
   FEM_CLOTH_CHECK(r.check());
   FEM_CLOTH_CHECK(r.number("distance", s.contact.distance));
   if (r.has("stiffness")) {
@@ -382,6 +383,17 @@ Status readContact(const YAML::Node& node, Scene& s) {
   FEM_CLOTH_CHECK(r.number("self_friction", s.contact.selfFriction));
   FEM_CLOTH_CHECK(r.number("friction_velocity", s.contact.frictionVelocity));
   FEM_CLOTH_CHECK(r.number("surface_stretch", s.contact.surfaceStretch));
+  if (r.has("surface_tolerance")) {
+    const YAML::Node t = r.child("surface_tolerance");
+    if (t.IsScalar() && t.Scalar() == "auto") {
+      s.contact.surfaceTolerance = -1.0;
+    } else {
+      FEM_CLOTH_CHECK(MapReader::toNumber(t, "contact.surface_tolerance", s.contact.surfaceTolerance));
+      if (!(s.contact.surfaceTolerance >= 0.0)) {
+        return Error{"contact.surface_tolerance must be auto or at least 0 (m), got " + describe(t)};
+      }
+    }
+  }
   return Status::success();
 }
 

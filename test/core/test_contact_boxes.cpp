@@ -352,6 +352,10 @@ TEST(ContactBoxes, StripOverATableEdgeSlidesOrHoldsAsTheCapstanEquationSays) {
     scene.grid.origin = {0.1, -0.02, 0.8};
     ASSERT_EQ(scene.obstacles[0].name, "table");
     scene.obstacles[0].friction = factor * critical;
+    // Symplectic Euler keeps vertices out: its triangles (2 cm legs, lattice radius 14.14 mm,
+    // 21.21 mm at contact.surface_stretch 1.5) may reach 21.21 - 2 = 19.21 mm into the edge
+    // between them (contact/surface_reach.h); accepted here, where friction is tested.
+    scene.contact.surfaceTolerance = 0.0193;
     Simulation sim = mustBuild(scene);
     const Simulator& s = *sim.simulator;
     ASSERT_EQ(run(sim, static_cast<int>(std::lround(3.0 / scene.dt))), "") << integrator << ", mu " << factor * critical;

@@ -174,6 +174,38 @@ TEST(LiveChange, AnObstacleOnATfFrameIsRefusedWhereTheSteppersCannotTakeAPinch) 
   EXPECT_EQ(taken->scene.obstacles.size(), 2u);
 }
 
+// Issue 30: an obstacle added to a running simulation passes the explicit steppers' check of how
+// deep the cloth's surface could reach into it between the vertices they keep out
+// (contact/surface_reach.h). By hand: 10 cm cells, right triangles with a lattice radius of half
+// their 14.14 cm diagonal, 1.5 x 70.71 = 106.07 mm at contact.surface_stretch, less d̂ (1 mm):
+// 105.07 mm into a box's edge, more than the default tolerance (d̂): refused with symplectic Euler,
+// naming the box and the tolerance that would take it; taken with that tolerance, and by backward
+// Euler without.
+TEST(LiveChange, AnObstacleTheTrianglesCouldReachIntoIsRefusedForTheExplicitSteppers) {
+  const std::string block = "{type: box, center: [0.2, 0.2, -0.5], size: [1.0, 1.0, 0.4]}";
+  YAML::Node doc = YAML::Load(kScene);
+  doc["integrator"]["name"] = "symplectic_euler";
+  const Expected<LiveChange> refused = applyObstacleChange(doc, ObstacleEdit::Add, "block", block);
+  ASSERT_FALSE(refused.ok());
+  for (const std::string m : {"integrator symplectic_euler", "box 'block'", "may reach up to 105.07 mm into it",
+                              "set contact.surface_tolerance: 0.1051"}) {
+    EXPECT_NE(refused.error().find(m), std::string::npos) << refused.error() << "\nlacks " << m;
+  }
+  // The tolerance is a live key (~set), as the node's user gives it before adding the box.
+  const Expected<LiveChange> set = applyLiveChange(doc, {"contact.surface_tolerance=0.1051"});
+  ASSERT_TRUE(set.ok()) << set.error();
+  const Expected<LiveChange> accepted = applyObstacleChange(set->document, ObstacleEdit::Add, "block", block);
+  ASSERT_TRUE(accepted.ok()) << accepted.error();
+  // With the box there, a tolerance below its bound is refused as the scene would be.
+  const Expected<LiveChange> lowered = applyLiveChange(accepted->document, {"contact.surface_tolerance=0.1"});
+  ASSERT_FALSE(lowered.ok());
+  EXPECT_NE(lowered.error().find("box 'block'"), std::string::npos) << lowered.error();
+  doc.remove("contact");
+  doc["integrator"]["name"] = "backward_euler";
+  const Expected<LiveChange> taken = applyObstacleChange(doc, ObstacleEdit::Add, "block", block);
+  ASSERT_TRUE(taken.ok()) << taken.error();
+}
+
 // Issue 31: the run's energy scale is not inflated by the live change it checks. A 1 kg, 1 m
 // cloth hanging from two corners under symplectic Euler, made 1000 x stiffer after 1 s: at the same
 // shape StVK's strain energy is 1000 x (999 x of it booked as live work), about 98 J against the

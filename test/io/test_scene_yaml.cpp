@@ -193,6 +193,16 @@ contact: {distance: 0.003, stiffness: 20, self_collision: true, self_friction: 0
   const Expected<Scene> automatic = parse(std::string(kBase) + "contact: {stiffness: auto}\n");
   ASSERT_TRUE(automatic.ok()) << automatic.error();
   EXPECT_EQ(automatic->contact.stiffness, 0.0);
+  // contact.surface_tolerance: auto (the default) is contact.distance; a number is metres.
+  EXPECT_EQ(surfaceTolerance(automatic->contact), automatic->contact.distance);
+  const Expected<Scene> tolerance = parse(std::string(kBase) + "contact: {distance: 0.003, surface_tolerance: 0.02}\n");
+  ASSERT_TRUE(tolerance.ok()) << tolerance.error();
+  EXPECT_EQ(surfaceTolerance(tolerance->contact), 0.02);
+  const Expected<Scene> autoTolerance = parse(std::string(kBase) + "contact: {distance: 0.003, surface_tolerance: auto}\n");
+  ASSERT_TRUE(autoTolerance.ok()) << autoTolerance.error();
+  EXPECT_EQ(surfaceTolerance(autoTolerance->contact), 0.003);
+  expectParseError(std::string(kBase) + "contact: {surface_tolerance: -0.001}\n", {"contact.surface_tolerance", "auto", "at least 0"});
+  expectParseError(std::string(kBase) + "contact: {surface_tolerance: deep}\n", {"contact.surface_tolerance"});
 
   const std::string sphere = "obstacles: [{type: sphere, center: [0, 0, 1], radius: 0.1";
   expectParseError(std::string(kBase) + sphere + ", size: [1, 1, 1]}]\n",
@@ -553,6 +563,7 @@ TEST(SceneYaml, EveryPhysicalKeyHasASaneRange) {
       {"contact.stiffness", "m/s^2", "1e-3", "1e9", "", "2e9"},
       {"contact.friction_velocity", "m/s", "1e-8", "1", "0", "2"},
       {"contact.surface_stretch", "", "1", "10", "0.9", "11"},
+      {"contact.surface_tolerance", "m", "0", "1", "", "1.1"},
       {"contact.self_friction", "", "0", "10", "-0.1", "11"},
   };
   for (const Case& c : cases) {

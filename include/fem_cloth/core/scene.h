@@ -182,6 +182,9 @@ constexpr double kMinObstacleSize = 1e-6;
 /// friction, velocity, trajectory, frame.
 Expected<Obstacle> makeObstacle(const SceneObstacle& entry, const std::string& key);
 
+/// The scene's cloth mesh at rest (its grid, OBJ file or explicit mesh).
+Expected<Mesh> buildMesh(const Scene& scene);
+
 /// The dimension of the scene's mesh (grid meshes keep it in grid.dim).
 inline int meshDim(const Scene& scene) { return scene.meshType == MeshType::Grid ? scene.grid.dim : scene.dim; }
 

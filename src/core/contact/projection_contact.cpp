@@ -7,6 +7,7 @@
 #include "fem_cloth/core/contact/edge_distance.h"
 #include "fem_cloth/core/contact/shapes.h"
 #include "fem_cloth/core/contact/surface_check.h"
+#include "fem_cloth/core/contact/surface_samples.h"
 
 namespace fem_cloth {
 
@@ -15,12 +16,22 @@ Eigen::Vector3d vertex(const VectorX& x, Index i) { return x.segment<3>(3 * i); 
 }  // namespace
 
 ProjectionContact::ProjectionContact(const Model& model, std::shared_ptr<ObstacleSet> obstacles,
-                                     double distance)
-    : obstacles_(std::move(obstacles)), mass_(model.vertexMasses()), dHat_(distance) {
+                                     const ContactSettings& settings)
+    : obstacles_(std::move(obstacles)),
+      mass_(model.vertexMasses()),
+      dHat_(settings.distance),
+      tolerance_(surfaceTolerance(settings)),
+      stretch_(settings.surfaceStretch) {
   projectedBy_.assign(static_cast<std::size_t>(mass_.size()), -1);
   for (std::size_t k = 0; k < obstacles_->size(); ++k) {
     if (obstacles_->hasEdgeDistance(k) || (*obstacles_)[k].shape.type == ShapeType::Box) {
-      triangles_ = model.mesh().triangles;
+      const Mesh& mesh = model.mesh();
+      triangles_ = mesh.triangles;
+      for (const Triangle& t : triangles_) {
+        restRadius_.push_back(latticeRadius(vertex3(mesh, mesh.restPositions, t[0]),
+                                            vertex3(mesh, mesh.restPositions, t[1]),
+                                            vertex3(mesh, mesh.restPositions, t[2])));
+      }
       break;
     }
   }
@@ -133,14 +144,14 @@ bool ProjectionContact::freeTriangle(const Triangle& t) const {
 
 void ProjectionContact::checkSurface(const VectorX& x, double h, ContactStats& stats) {
   for (std::size_t k = 0; k < obstacles_->size(); ++k) {
-    if ((*obstacles_)[k].shape.type == ShapeType::Box) measureBoxDepth(x, k, stats);
+    if ((*obstacles_)[k].shape.type == ShapeType::Box) measureBoxDepth(x, k, h, stats);
   }
   for (std::size_t k = 0; k < obstacles_->size() && stats.crossing.empty(); ++k) {
     if (obstacles_->hasEdgeDistance(k)) checkRound(x, k, h, stats);
   }
 }
 
-void ProjectionContact::measureBoxDepth(const VectorX& x, std::size_t k, ContactStats& stats) {
+void ProjectionContact::measureBoxDepth(const VectorX& x, std::size_t k, double h, ContactStats& stats) {
   const Eigen::Vector3d& half = (*obstacles_)[k].shape.halfExtents;
   const Eigen::Isometry3d& inverse = obstacles_->inverseEnd(k);
   // Each vertex in the box's frame, and which face planes it is beyond (bit 2i: p_i > h_i, bit
@@ -172,22 +183,45 @@ void ProjectionContact::measureBoxDepth(const VectorX& x, std::size_t k, Contact
     if (depth <= stats.boxDepth) continue;
     stats.boxDepth = depth;
     stats.boxDepthWhere = "triangle " + std::to_string(t) + " in box '" + (*obstacles_)[k].name + "'";
+    if (depth > tolerance_ && stats.crossing.empty()) setCrossing(x, t, k, depth, h, stats);
   }
 }
 
+void ProjectionContact::setCrossing(const VectorX& x, std::size_t t, std::size_t k, double d, double h,
+                                    ContactStats& stats) const {
+  const ObstacleSet& obstacles = *obstacles_;
+  const Triangle& tri = triangles_[t];
+  // Why the check before the run (surface_reach.h) did not keep it within the tolerance.
+  const double stretch = latticeRadius(vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2])) / restRadius_[t];
+  char why[200];
+  if (stretch > stretch_) {
+    std::snprintf(why, sizeof why, "this one is stretched to %.3g times its rest size, beyond the %.3g of contact.surface_stretch",
+                  stretch, stretch_);
+  } else {
+    std::snprintf(why, sizeof why, "this one, stretched %.3g times, is within it: a vertex was not kept contact.distance out, as when "
+                  "another obstacle pushes it back in",
+                  stretch);
+  }
+  const double speed = (obstacles.poseEnd(k).translation() - obstacles.poseStart(k).translation()).norm() / h;
+  char text[240];
+  std::snprintf(text, sizeof text, ") is %.3f mm inside %s '%s' (moving at %.3g m/s), more than contact.surface_tolerance (%.3f mm)",
+                1e3 * d, shapeTypeName(obstacles[k].shape.type).c_str(), obstacles[k].name.c_str(), speed,
+                1e3 * tolerance_);
+  stats.crossing = "triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " +
+                   std::to_string(tri[1]) + ", " + std::to_string(tri[2]) + text +
+                   ": the projection of the explicit steppers keeps vertices out of obstacles, not the triangles "
+                   "between them, and the scene was checked for triangles up to contact.surface_stretch (" +
+                   std::string(why) + "); backward_euler and bdf2 keep triangles out (docs/contact.md)";
+}
+
 void ProjectionContact::checkRound(const VectorX& x, std::size_t k, double h, ContactStats& stats) const {
-  // A triangle deeper than dHat and than half the radius inside a round obstacle: the obstacle is
-  // passing between the vertices (a rod, a fast ball), and the step fails. Shallower is a
-  // discretisation error, reported: a chord of length L over a radius R sags L^2 / (8 R) below its
-  // vertices held at dHat (the 7 cm diagonal of a 9 x 9, 0.4 m cloth over a 0.1 m ball,
-  // test_core_contact, 6 mm below them), a triangle's inside a little more.
-  // Any depth is measured (the deepest goes into stats.boxDepth and boxDepthWhere, with the
-  // boxes', and makes the run's status a warning): a cloth whose cells are wide against the ball
-  // reaches far into it between its vertices, and was reported "ok" (issue 30: 35 mm into
-  // test/data/contact/ball.yaml's 0.1 m ball rising at 1 m/s, with symplectic Euler).
+  // The deepest point of any free triangle in the obstacle, exact (triangleShapeDistance), goes
+  // into stats.boxDepth and boxDepthWhere with the boxes' (the run's status becomes a warning); a
+  // triangle deeper than the tolerance fails the substep: before the run the registry cleared the
+  // scene's triangles up to contact.surface_stretch (surface_reach.h), so this is one stretched
+  // more, or a ball passing between the vertices.
   const ObstacleSet& obstacles = *obstacles_;
   const Shape& shape = obstacles[k].shape;
-  const double tolerance = std::max(dHat_, 0.5 * shape.radius);
   const Eigen::Vector3d centre = obstacles.poseEnd(k).translation();  // the shape frame's origin
   const double reach = shape.radius + shape.halfLength;
   const Eigen::Isometry3d& inverse = obstacles.inverseEnd(k);
@@ -198,24 +232,15 @@ void ProjectionContact::checkRound(const VectorX& x, std::size_t k, double h, Co
     // obstacle's bounding sphere (less a depth), it cannot reach that depth: neither the deepest
     // so far nor the tolerance.
     const double side = std::sqrt(std::max({(b - a).squaredNorm(), (c - b).squaredNorm(), (a - c).squaredNorm()}));
-    if ((a - centre).norm() - reach - side >= -std::min(stats.boxDepth, tolerance) || !freeTriangle(tri)) continue;
+    if ((a - centre).norm() - reach - side >= -std::min(stats.boxDepth, tolerance_) || !freeTriangle(tri)) continue;
     const double d = *triangleShapeDistance(shape, inverse * a, inverse * b, inverse * c);
     if (-d > stats.boxDepth) {
       stats.boxDepth = -d;
       stats.boxDepthWhere = "triangle " + std::to_string(t) + " in " + shapeTypeName(shape.type) + " '" +
                             obstacles[k].name + "'";
     }
-    if (d >= -tolerance) continue;
-    const double speed = (obstacles.poseEnd(k).translation() - obstacles.poseStart(k).translation()).norm() / h;
-    char text[200];
-    std::snprintf(text, sizeof text,
-                  ") is %.3f mm inside obstacle '%s' (moving at %.3g m/s), more than the %.3f mm (max(d_hat, "
-                  "radius / 2)) let pass",
-                  -1e3 * d, obstacles[k].name.c_str(), speed, 1e3 * tolerance);
-    stats.crossing = "triangle " + std::to_string(t) + " (vertices " + std::to_string(tri[0]) + ", " +
-                     std::to_string(tri[1]) + ", " + std::to_string(tri[2]) + text +
-                     ": the projection of the explicit steppers keeps vertices out of obstacles, not the "
-                     "triangles between them; backward_euler and bdf2 keep triangles out (docs/contact.md)";
+    if (d >= -tolerance_) continue;
+    setCrossing(x, t, k, -d, h, stats);
     return;
   }
 }

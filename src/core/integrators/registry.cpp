@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "fem_cloth/core/contact/pinch.h"
+#include "fem_cloth/core/contact/surface_reach.h"
 #include "fem_cloth/core/scene.h"
 
 namespace fem_cloth {
@@ -53,7 +54,9 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
   const std::string bendingDefault = s.bendingModel == BendingModel::Midedge ? " (the default)" : "";
   const std::vector<std::string> bendingModels = enumNames(bendingModelNames(), c.bendingModels);
   const auto firstOf = [](const std::vector<std::string>& v) { return v.empty() ? "" : v.front(); };
-  const std::optional<ObstaclePinch> pinch = c.contact == ContactMethod::Projection ? findScenePinch(s) : std::nullopt;
+  const bool projection = c.contact == ContactMethod::Projection;
+  const std::optional<ObstaclePinch> pinch = projection ? findScenePinch(s) : std::nullopt;
+  const std::optional<SurfaceReach> reach = projection ? findSurfaceReach(s) : std::nullopt;
   return {
       {"material.model", [](const Scene&) { return true; },
        [](const IntegratorCapabilities& k, const Scene& x) { return listed(k.materials, x.materialModel); },
@@ -83,6 +86,12 @@ std::vector<Requirement> requirements(const Scene& s, const IntegratorCapabiliti
            ", where its projection cannot keep a vertex contact.distance from both",
        "", pinch && !pinch->frame.empty() ? "script their motion (velocity, trajectory) instead of a tf frame"
                                            : "keep the obstacles 2 contact.distance apart"},
+      // Issue 30: the projection keeps vertices out, not the surface between them
+      // (contact/surface_reach.h).
+      {"obstacles", [reach](const Scene&) { return reach.has_value(); },
+       [](const IntegratorCapabilities& k, const Scene&) { return k.contact == ContactMethod::Barriers; },
+       "keeping the cloth's surface out of " + (reach ? surfaceReachText(*reach, s) : std::string()), "",
+       reach ? surfaceReachHint(*reach, s) : std::string()},
   };
 }
 

@@ -34,7 +34,16 @@ struct ContactSettings {
   /// the surface samples still keep every point of it out of spheres and capsules
   /// (surface_samples.h): larger takes more samples per triangle, or grows the obstacles more.
   double surfaceStretch = 1.5;
+  /// m: how deep the explicit steppers, which keep only vertices out of obstacles, may let the
+  /// surface between them reach into one (contact/surface_reach.h): checked before the run
+  /// against a bound, measured after every substep. Negative: auto, contact.distance.
+  double surfaceTolerance = -1.0;
 };
+
+/// contact.surface_tolerance (m), auto resolved to contact.distance.
+inline double surfaceTolerance(const ContactSettings& c) {
+  return c.surfaceTolerance >= 0.0 ? c.surfaceTolerance : c.distance;
+}
 
 /// The force the cloth exerts on an obstacle (N) and its moment about the simulation frame's
 /// origin (N m), both in the simulation frame.

@@ -21,8 +21,10 @@ namespace fem_cloth {
 
 class ProjectionContact {
  public:
-  /// distance: dHat (m), the gap vertices keep from the obstacles.
-  ProjectionContact(const Model& model, std::shared_ptr<ObstacleSet> obstacles, double distance);
+  /// Reads settings.distance, dHat (m): the gap vertices keep from the obstacles;
+  /// surfaceTolerance(settings) (m): how deep a point between them may be inside an obstacle
+  /// before the substep fails; surfaceStretch, for the message when one is.
+  ProjectionContact(const Model& model, std::shared_ptr<ObstacleSet> obstacles, const ContactSettings& settings);
 
   const ObstacleSet& obstacles() const { return *obstacles_; }
   double distance() const { return dHat_; }
@@ -43,11 +45,12 @@ class ProjectionContact {
   /// times the motion of the obstacle's surface point under the vertex: ContactStats::work), the
   /// obstacles' wrenches and the contact count. Last, the surface check (surface_check.h), on
   /// every triangle whose three vertices are free (the pin wins): the deepest point of any such
-  /// triangle inside a box, exact (triangleBoxDepth), into stats.boxDepth and boxDepthWhere (the
-  /// projection keeps vertices out of boxes, not the points between them: reported, the step
-  /// stands); a triangle more than max(dHat, radius / 2) inside a sphere or capsule (exact,
-  /// triangleShapeDistance) sets stats.crossing, naming the triangle, the obstacle and its speed
-  /// (the step fails).
+  /// triangle inside an obstacle, exact (triangleBoxDepth, triangleShapeDistance), into
+  /// stats.boxDepth and boxDepthWhere (the projection keeps vertices out, not the points between
+  /// them: reported); deeper than the tolerance, it sets stats.crossing, naming the triangle, the
+  /// obstacle and its speed (the step fails). The registry refuses a scene whose triangles could
+  /// reach deeper at contact.surface_stretch (surface_reach.h), so this fails only a triangle
+  /// stretched beyond it, or pushed in by another obstacle.
   void finishSubstep(VectorX& x, const VectorX& xStart, double h, double massScale, ContactStats& stats);
   /// The displacement (per DOF, m) projection and friction gave x in this substep.
   const VectorX& correction() const { return correction_; }
@@ -59,19 +62,26 @@ class ProjectionContact {
   void applyFriction(VectorX& x, const VectorX& xStart);
   /// The surface check of finishSubstep: boxes, then round obstacles.
   void checkSurface(const VectorX& x, double h, ContactStats& stats);
-  /// The deepest point of a free triangle in box k, into stats.boxDepth and boxDepthWhere.
-  void measureBoxDepth(const VectorX& x, std::size_t k, ContactStats& stats);
-  /// The first free triangle more than the tolerance inside round obstacle k, as stats.crossing.
+  /// The deepest point of a free triangle in box k, into stats.boxDepth and boxDepthWhere; the
+  /// first deeper than the tolerance, as stats.crossing.
+  void measureBoxDepth(const VectorX& x, std::size_t k, double h, ContactStats& stats);
+  /// The deepest point of a free triangle in round obstacle k, into stats.boxDepth and
+  /// boxDepthWhere; the first deeper than the tolerance, as stats.crossing.
   void checkRound(const VectorX& x, std::size_t k, double h, ContactStats& stats) const;
+  /// stats.crossing for a free triangle deeper than the tolerance in obstacle k (m, deepest d).
+  void setCrossing(const VectorX& x, std::size_t t, std::size_t k, double d, double h, ContactStats& stats) const;
   bool freeTriangle(const Triangle& t) const;
 
   std::shared_ptr<ObstacleSet> obstacles_;
   VectorX mass_;  // per vertex (kg)
   double dHat_ = 0.0;
+  double tolerance_ = 0.0;  // m, contact.surface_tolerance
+  double stretch_ = 1.0;    // contact.surface_stretch
   std::vector<int> projectedBy_;  // per vertex: obstacle of the last projection, -1 none
   VectorX normalPush_;            // per vertex: distance projected along normals this substep (m)
   VectorX correction_;            // per DOF: displacement by projection and friction (m)
   std::vector<Triangle> triangles_;  // the mesh's triangles, if a box or a round obstacle needs them
+  std::vector<double> restRadius_;   // per triangle: its lattice radius at rest (m)
   const std::vector<char>* pinned_ = nullptr;  // per DOF, from the last project()
   Eigen::Matrix3Xd local_;                      // the vertices in a box's frame (measureBoxDepth)
   std::vector<unsigned char> beyond_;           // per vertex: the box's face planes it is beyond
