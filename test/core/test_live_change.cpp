@@ -4,6 +4,8 @@
 // a bad pair is refused naming it with nothing applied.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+
 #include <cmath>
 
 #include "fem_cloth/core/live_change.h"
@@ -204,6 +206,54 @@ TEST(LiveChange, AnObstacleTheTrianglesCouldReachIntoIsRefusedForTheExplicitStep
   doc["integrator"]["name"] = "backward_euler";
   const Expected<LiveChange> taken = applyObstacleChange(doc, ObstacleEdit::Add, "block", block);
   ASSERT_TRUE(taken.ok()) << taken.error();
+}
+
+// An obstacle added into the running cloth is refused, and the run goes on as it was (the node's
+// ~add_obstacle, ~move_obstacle and replays apply changes this way). After 0.2 s of hanging, a
+// 5 cm ball centred on the free vertex 12 (the middle) has it 5 cm inside: refused, naming the
+// ball, how many vertices are inside (the ball is smaller than the 10 cm cells: one) and the
+// deepest with its distance, -0.05 m by construction; the running simulation is
+// untouched and steps on. The same ball 1 m below the cloth is taken. Moving it (~move_obstacle)
+// onto vertex 12 is refused too. For backward and symplectic Euler alike.
+TEST(LiveChange, AnObstacleInsideTheRunningClothIsRefused) {
+  for (const std::string integrator : {"backward_euler", "symplectic_euler"}) {
+    YAML::Node doc = YAML::Load(kScene);
+    doc["integrator"]["name"] = integrator;
+    if (integrator == "symplectic_euler") doc["contact"]["surface_tolerance"] = 0.05;  // the ball's radius
+    Simulation sim = build(doc);
+    steps(sim, 20);
+    const Eigen::Vector3d middle = sim.simulator->state().x.segment<3>(3 * 12);
+    const auto point = [](const Eigen::Vector3d& c) {  // exactly, in YAML
+      char text[100];
+      std::snprintf(text, sizeof text, "[%.17g, %.17g, %.17g]", c.x(), c.y(), c.z());
+      return std::string(text);
+    };
+    const auto entry = [&](const Eigen::Vector3d& c) { return "{type: sphere, radius: 0.05, center: " + point(c) + "}"; };
+    const Expected<LiveChange> into = applyObstacleChange(doc, ObstacleEdit::Add, "ball", entry(middle));
+    ASSERT_TRUE(into.ok()) << into.error();  // a valid scene: the check is against the running state
+    const VectorX before = sim.simulator->state().x;
+    const Expected<Simulation> refused = changeLive(sim, into->scene);
+    ASSERT_FALSE(refused.ok()) << integrator;
+    for (const std::string m : {"obstacles[0] ('ball'): the running cloth has 1 vertex inside it, the deepest vertex 12 "
+                                "(distance -0.05 m",
+                                "place the obstacle clear of the cloth"}) {
+      EXPECT_NE(refused.error().find(m), std::string::npos) << refused.error();
+    }
+    EXPECT_EQ(sim.simulator->state().x, before);
+    steps(sim, 5);  // the run goes on
+    const Expected<LiveChange> below =
+        applyObstacleChange(doc, ObstacleEdit::Add, "ball", entry(Eigen::Vector3d(0.2, 0.2, -1.0)));
+    ASSERT_TRUE(below.ok()) << below.error();
+    Expected<Simulation> taken = changeLive(sim, below->scene);
+    ASSERT_TRUE(taken.ok()) << integrator << ": " << taken.error();
+    const Eigen::Vector3d now = taken->simulator->state().x.segment<3>(3 * 12);
+    const Expected<LiveChange> moved =
+        applyObstacleChange(below->document, ObstacleEdit::Move, "ball", "{center: " + point(now) + "}");
+    ASSERT_TRUE(moved.ok()) << moved.error();
+    const Expected<Simulation> movedIn = changeLive(*taken, moved->scene);
+    ASSERT_FALSE(movedIn.ok()) << integrator;
+    EXPECT_NE(movedIn.error().find("the deepest vertex 12 (distance -0.05 m"), std::string::npos) << movedIn.error();
+  }
 }
 
 // Issue 31: the run's energy scale is not inflated by the live change it checks. A 1 kg, 1 m
