@@ -1,5 +1,6 @@
 #include "fem_cloth/core/live_change.h"
 
+#include "fem_cloth/core/contact/contact_model.h"
 #include "fem_cloth/core/contact/obstacle_set.h"
 
 namespace fem_cloth {
@@ -45,7 +46,9 @@ Status checkClothOutsideObstacles(const Simulator& s) {
 }  // namespace
 
 Expected<Simulation> changeLive(Simulation& running, const Scene& changed) {
-  Expected<Simulation> next = buildSimulation(changed);
+  // The scene's start checks look at its initial state, where the running cloth no longer is (an
+  // obstacle added where the cloth lay at t = 0 was refused: "vertex 444 starts inside it").
+  Expected<Simulation> next = buildSimulationToContinue(changed);
   if (!next) return Error{next.error()};
   const Mesh& before = *running.mesh;
   const Mesh& after = *next->mesh;
@@ -54,7 +57,21 @@ Expected<Simulation> changeLive(Simulation& running, const Scene& changed) {
   }
   next->simulator->continueFrom(*running.simulator);
   next->script = running.script;
-  if (Status s = checkClothOutsideObstacles(*next->simulator); !s) return Error{s.error()};
+  Simulator& s = *next->simulator;
+  if (Status st = checkClothOutsideObstacles(s); !st) return Error{st.error()};
+  if (ContactModel* barriers = s.contact(); barriers != nullptr) {
+    // The barriers' surface samples too (round obstacles between vertices, box edges through
+    // triangles), with the obstacles where they are at the running time.
+    s.obstacles()->beginStep(s.time(), s.settings().dt);
+    if (Status st = barriers->checkSurfaceAtStart(s.state().x, s.pinnedVertices()); !st) {
+      // Its message is worded for a scene's start.
+      std::string text = st.error();
+      const std::string atStart = " at the start; move the obstacle or the cloth";
+      if (const std::size_t at = text.find(atStart); at != std::string::npos) text.erase(at, atStart.size());
+      return Error{text + " where the running cloth is (t = " + numberText(s.time()) +
+                   " s); place the obstacle clear of the cloth where it is now (~state)"};
+    }
+  }
   return next;
 }
 

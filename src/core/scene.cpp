@@ -8,6 +8,7 @@
 
 #include "fem_cloth/core/bending.h"
 #include "fem_cloth/core/contact/self_intersection.h"
+#include "fem_cloth/core/live_change.h"
 #include "fem_cloth/core/membrane.h"
 
 namespace fem_cloth {
@@ -580,21 +581,24 @@ Status checkSelfContactAtStart(const Scene& scene, ContactModel& contact, const 
   return Status::success();
 }
 
-// The scene's obstacles, and the one contact method its integrator uses on them.
+// The scene's obstacles, and the one contact method its integrator uses on them. checkStart:
+// check them against the initial state x (a live change checks the running state instead).
 Status addContact(const Scene& scene, const Model& model, const VectorX& x,
-                  const std::vector<Index>& pinned, Simulator& simulator) {
+                  const std::vector<Index>& pinned, Simulator& simulator, bool checkStart) {
   FEM_CLOTH_CHECK(checkContactDistance(model.mesh(), scene.contact.distance));
   std::vector<Obstacle> list;
   for (std::size_t i = 0; i < scene.obstacles.size(); ++i) {
     list.push_back(*makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]"));
   }
   auto obstacles = std::make_shared<ObstacleSet>(std::move(list));
-  FEM_CLOTH_CHECK(checkObstacleGaps(scene, *obstacles, x, pinned));
+  if (checkStart) FEM_CLOTH_CHECK(checkObstacleGaps(scene, *obstacles, x, pinned));
   switch ((*findIntegrator(scene.integrator))->supports.contact) {
     case ContactMethod::Barriers: {
       auto barriers = std::make_unique<ContactModel>(model, obstacles, scene.contact, scene.gravity.norm());
-      FEM_CLOTH_CHECK(barriers->checkSurfaceAtStart(x, pinned));
-      if (scene.contact.selfCollision) FEM_CLOTH_CHECK(checkSelfContactAtStart(scene, *barriers, model.mesh(), x));
+      if (checkStart) {
+        FEM_CLOTH_CHECK(barriers->checkSurfaceAtStart(x, pinned));
+        if (scene.contact.selfCollision) FEM_CLOTH_CHECK(checkSelfContactAtStart(scene, *barriers, model.mesh(), x));
+      }
       simulator.setContact(obstacles, std::move(barriers));
       break;
     }
@@ -770,7 +774,9 @@ SimulatorSettings simulatorSettings(const Scene& scene) {
   return settings;
 }
 
-Expected<Simulation> buildSimulation(const Scene& scene) {
+namespace {
+
+Expected<Simulation> build(const Scene& scene, bool checkStart) {
   if (Status s = validateScene(scene); !s) return Error{s.error()};
   Simulation sim;
   Expected<std::shared_ptr<const Mesh>> checked = checkedMesh(scene, sim.warnings);
@@ -798,7 +804,9 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   FEM_CLOTH_CHECK(applyScenePins(scene, simulator, sim.script, x, v));
   FEM_CLOTH_CHECK(applySceneForces(scene, simulator, sim.script));
   if (Status st = simulator.setInitialState(x, v); !st) return Error{"initial: " + st.error()};
-  if (sceneHasContact(scene)) FEM_CLOTH_CHECK(addContact(scene, *sim.model, x, simulator.pinnedVertices(), simulator));
+  if (sceneHasContact(scene)) {
+    FEM_CLOTH_CHECK(addContact(scene, *sim.model, x, simulator.pinnedVertices(), simulator, checkStart));
+  }
   const Model::Energies e0 = sim.model->energies(x);
   if (!std::isfinite(e0.total())) {
     return Error{"initial: the initial positions put an element outside the material's domain "
@@ -806,5 +814,11 @@ Expected<Simulation> buildSimulation(const Scene& scene) {
   }
   return sim;
 }
+
+}  // namespace
+
+Expected<Simulation> buildSimulation(const Scene& scene) { return build(scene, true); }
+
+Expected<Simulation> buildSimulationToContinue(const Scene& scene) { return build(scene, false); }
 
 }  // namespace fem_cloth

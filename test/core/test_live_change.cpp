@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <iostream>
 
 #include <cmath>
 
@@ -213,7 +214,7 @@ TEST(LiveChange, AnObstacleTheTrianglesCouldReachIntoIsRefusedForTheExplicitStep
 // 5 cm ball centred on the free vertex 12 (the middle) has it 5 cm inside: refused, naming the
 // ball, how many vertices are inside (the ball is smaller than the 10 cm cells: one) and the
 // deepest with its distance, -0.05 m by construction; the running simulation is
-// untouched and steps on. The same ball 1 m below the cloth is taken. Moving it (~move_obstacle)
+// untouched and steps on. The same ball where the cloth lay at t = 0, or 1 m below it, is taken. Moving it (~move_obstacle)
 // onto vertex 12 is refused too. For backward and symplectic Euler alike.
 TEST(LiveChange, AnObstacleInsideTheRunningClothIsRefused) {
   for (const std::string integrator : {"backward_euler", "symplectic_euler"}) {
@@ -240,6 +241,14 @@ TEST(LiveChange, AnObstacleInsideTheRunningClothIsRefused) {
       EXPECT_NE(refused.error().find(m), std::string::npos) << refused.error();
     }
     EXPECT_EQ(sim.simulator->state().x, before);
+    // Where the cloth lay at t = 0 (vertex 12 started at (0.2, 0.2, 0)) the ball is taken: the
+    // cloth has fallen away from there. (The scene's start check refused it: "vertex 12 starts
+    // inside it".)
+    EXPECT_LT(sim.simulator->state().x[3 * 12 + 2], -0.1);
+    const Expected<LiveChange> start = applyObstacleChange(doc, ObstacleEdit::Add, "ball", entry(Eigen::Vector3d(0.2, 0.2, 0.0)));
+    ASSERT_TRUE(start.ok()) << start.error();
+    const Expected<Simulation> atStart = changeLive(sim, start->scene);
+    EXPECT_TRUE(atStart.ok()) << integrator << ": " << atStart.error();
     steps(sim, 5);  // the run goes on
     const Expected<LiveChange> below =
         applyObstacleChange(doc, ObstacleEdit::Add, "ball", entry(Eigen::Vector3d(0.2, 0.2, -1.0)));
@@ -254,6 +263,32 @@ TEST(LiveChange, AnObstacleInsideTheRunningClothIsRefused) {
     ASSERT_FALSE(movedIn.ok()) << integrator;
     EXPECT_NE(movedIn.error().find("the deepest vertex 12 (distance -0.05 m"), std::string::npos) << movedIn.error();
   }
+}
+
+// With the barriers, the surface between the vertices is checked against the running state too:
+// a 2 cm ball centred on the centroid of a triangle of the hanging cloth (its vertices 4.7 cm or
+// more away: the cells are 10 cm) has no vertex inside it, but points of the triangle: refused,
+// naming the ball and the running time.
+TEST(LiveChange, AnObstacleBetweenTheRunningClothsVerticesIsRefusedByTheBarriers) {
+  YAML::Node doc = YAML::Load(kScene);
+  Simulation sim = build(doc);
+  steps(sim, 20);
+  const Triangle t = sim.mesh->triangles[10];
+  const VectorX& x = sim.simulator->state().x;
+  const Eigen::Vector3d c = (x.segment<3>(3 * t[0]) + x.segment<3>(3 * t[1]) + x.segment<3>(3 * t[2])) / 3.0;
+  for (Index v : t) ASSERT_GT((x.segment<3>(3 * v) - c).norm(), 0.04) << "vertex " << v;
+  char entry[200];
+  std::snprintf(entry, sizeof entry, "{type: sphere, radius: 0.02, center: [%.17g, %.17g, %.17g]}", c.x(), c.y(), c.z());
+  const Expected<LiveChange> change = applyObstacleChange(doc, ObstacleEdit::Add, "pebble", entry);
+  ASSERT_TRUE(change.ok()) << change.error();
+  const Expected<Simulation> refused = changeLive(sim, change->scene);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().find("obstacles[0] ('pebble')"), std::string::npos) << refused.error();
+  EXPECT_NE(refused.error().find("reaches 20 mm into obstacle 'pebble' where the running cloth is (t = 0.2 s); place "
+                                 "the obstacle clear of the cloth"),
+            std::string::npos)
+      << refused.error();
+  std::cout << refused.error() << "\n";
 }
 
 // Issue 31: the run's energy scale is not inflated by the live change it checks. A 1 kg, 1 m

@@ -14,7 +14,13 @@
 namespace fem_cloth {
 
 /// `changed` built and continuing `running` (left as it was on error). The mesh must be the one
-/// `running` was built with (live keys do not change it): the error says so otherwise.
+/// `running` was built with (live keys do not change it): the error says so otherwise. The
+/// obstacles are checked against the running cloth, not the scene's initial state: a free vertex
+/// inside one (or, with the barriers, a point of the surface) refuses the change.
 Expected<Simulation> changeLive(Simulation& running, const Scene& changed);
+
+/// buildSimulation without checking the obstacles against the scene's initial state (scene.cpp):
+/// what a live change builds, before it checks them against the running state.
+Expected<Simulation> buildSimulationToContinue(const Scene& scene);
 
 }  // namespace fem_cloth
