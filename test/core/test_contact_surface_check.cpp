@@ -381,7 +381,7 @@ TEST(SurfaceReach, ExplicitSteppersRefuseTrianglesThatCouldReachIntoAnObstacle) 
     table.integrator = integrator;
     const Status refused = validateScene(table);
     ASSERT_FALSE(refused.ok()) << integrator;
-    for (const std::string part :
+    for (const std::string& part :
          {"obstacles: integrator " + integrator + " does not support keeping the cloth's surface out of box 'table'",
          std::string("(points up to 42.43 mm from its nearest vertex at contact.surface_stretch 1.5) may reach up to "
                      "40.43 mm into it, more than contact.surface_tolerance (2.00 mm)"),

@@ -195,10 +195,10 @@ void ProjectionContact::setCrossing(const VectorX& x, std::size_t t, std::size_t
   const double stretch = latticeRadius(vertex(x, tri[0]), vertex(x, tri[1]), vertex(x, tri[2])) / restRadius_[t];
   char why[200];
   if (stretch > stretch_) {
-    std::snprintf(why, sizeof why, "this one is stretched to %.3g times its rest size, beyond the %.3g of contact.surface_stretch",
+    std::snprintf(why, sizeof why, "this one is stretched to %.6g times its rest size, beyond the %.4g of contact.surface_stretch",
                   stretch, stretch_);
   } else {
-    std::snprintf(why, sizeof why, "this one, stretched %.3g times, is within it: a vertex was not kept contact.distance out, as when "
+    std::snprintf(why, sizeof why, "this one, stretched %.6g times, is within it: a vertex was not kept contact.distance out, as when "
                   "another obstacle pushes it back in",
                   stretch);
   }
