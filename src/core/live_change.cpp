@@ -13,17 +13,15 @@ namespace {
 // where it swung) or stop the barriers, and the step would fail again and again. Refused here,
 // naming the obstacle and the vertex, so that the running simulation goes on unchanged.
 // Obstacles on tf frames are placed only when a step starts, by the ROS layer: not checked.
-Status checkClothOutsideObstacles(const Simulator& s) {
-  const ObstacleSet* obstacles = s.obstacles();
-  if (obstacles == nullptr) return Status::success();
+// The obstacles' poses are those at the start of the step from the running time
+// (ObstacleSet::beginStep, which changeLive calls).
+Status checkClothOutsideObstacles(const Simulator& s, const ObstacleSet& obstacles) {
   const VectorX& x = s.state().x;
   const double t = s.time();
-  for (std::size_t k = 0; k < obstacles->size(); ++k) {
-    const Obstacle& o = (*obstacles)[k];
+  for (std::size_t k = 0; k < obstacles.size(); ++k) {
+    const Obstacle& o = obstacles[k];
     if (!o.frame.empty()) continue;
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    if (o.scripted()) pose.translate(o.offsetAt(t));
-    const Eigen::Isometry3d inverse = (pose * o.geometry).inverse();
+    const Eigen::Isometry3d inverse = obstacles.shapePoseAt(k, 0.0).inverse();
     Index deepest = -1, inside = 0;
     double least = 0.0;
     for (Index v = 0; v < static_cast<Index>(x.size() / 3); ++v) {
@@ -58,11 +56,13 @@ Expected<Simulation> changeLive(Simulation& running, const Scene& changed) {
   next->simulator->continueFrom(*running.simulator);
   next->script = running.script;
   Simulator& s = *next->simulator;
-  if (Status st = checkClothOutsideObstacles(s); !st) return Error{st.error()};
+  ObstacleSet* obstacles = s.obstacles();
+  if (obstacles == nullptr) return next;
+  obstacles->beginStep(s.time(), s.settings().dt);  // where they are at the running time
+  if (Status st = checkClothOutsideObstacles(s, *obstacles); !st) return Error{st.error()};
   if (ContactModel* barriers = s.contact(); barriers != nullptr) {
     // The barriers' surface samples too (round obstacles between vertices, box edges through
-    // triangles), with the obstacles where they are at the running time.
-    s.obstacles()->beginStep(s.time(), s.settings().dt);
+    // triangles).
     if (Status st = barriers->checkSurfaceAtStart(s.state().x, s.pinnedVertices()); !st) {
       // Its message is worded for a scene's start.
       std::string text = st.error();

@@ -87,12 +87,7 @@ void ContactModel::sampleSurface(const Model& model) {
     thinnest = std::min(thinnest, (*obstacles_)[k].shape.radius);
   }
   if (thinnest == kInf) return;
-  double rho = 0.0;
-  for (const Triangle& t : mesh.triangles) {
-    rho = std::max(rho, latticeRadius(vertex3(mesh, mesh.restPositions, t[0]), vertex3(mesh, mesh.restPositions, t[1]),
-                                      vertex3(mesh, mesh.restPositions, t[2])));
-  }
-  rho *= settings_.surfaceStretch;
+  const double rho = settings_.surfaceStretch * largestRestLatticeRadius(mesh);
   const double grow = 0.25 * settings_.distance;
   const double rhoTarget = std::sqrt(grow * (2.0 * thinnest + grow));
   divisions_ = std::clamp(static_cast<int>(std::ceil(rho / rhoTarget)), 1, kMaxDivisions);

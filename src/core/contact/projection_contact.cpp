@@ -27,11 +27,7 @@ ProjectionContact::ProjectionContact(const Model& model, std::shared_ptr<Obstacl
     if (obstacles_->hasEdgeDistance(k) || (*obstacles_)[k].shape.type == ShapeType::Box) {
       const Mesh& mesh = model.mesh();
       triangles_ = mesh.triangles;
-      for (const Triangle& t : triangles_) {
-        restRadius_.push_back(latticeRadius(vertex3(mesh, mesh.restPositions, t[0]),
-                                            vertex3(mesh, mesh.restPositions, t[1]),
-                                            vertex3(mesh, mesh.restPositions, t[2])));
-      }
+      for (const Triangle& t : triangles_) restRadius_.push_back(restLatticeRadius(mesh, t));
       break;
     }
   }

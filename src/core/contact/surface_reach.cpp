@@ -18,16 +18,6 @@ double halfThickness(const Shape& shape) {
   return shape.type == ShapeType::Box ? shape.halfExtents.minCoeff() : shape.radius;
 }
 
-// The largest lattice radius of the mesh's triangles at rest (m).
-double largestLatticeRadius(const Mesh& mesh) {
-  double rho = 0.0;
-  for (const Triangle& t : mesh.triangles) {
-    rho = std::max(rho, latticeRadius(vertex3(mesh, mesh.restPositions, t[0]), vertex3(mesh, mesh.restPositions, t[1]),
-                                      vertex3(mesh, mesh.restPositions, t[2])));
-  }
-  return rho;
-}
-
 std::string millimetres(double metres) {
   char text[32];
   std::snprintf(text, sizeof text, "%.2f mm", 1e3 * metres);
@@ -60,7 +50,7 @@ std::optional<SurfaceReach> findSurfaceReach(const Scene& scene) {
   if (scene.obstacles.empty()) return std::nullopt;
   Expected<Mesh> mesh = buildMesh(scene);
   if (!mesh || mesh->dim != 3) return std::nullopt;
-  const double rho = scene.contact.surfaceStretch * largestLatticeRadius(*mesh);
+  const double rho = scene.contact.surfaceStretch * largestRestLatticeRadius(*mesh);
   const double tolerance = surfaceTolerance(scene.contact);
   for (std::size_t i = 0; i < scene.obstacles.size(); ++i) {
     Expected<Obstacle> o = makeObstacle(scene.obstacles[i], "obstacles[" + std::to_string(i) + "]");

@@ -18,6 +18,17 @@ double latticeRadius(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const E
   return std::sqrt(ab * bc * ca / (4.0 * area2));                      // abc / (4 area)
 }
 
+double restLatticeRadius(const Mesh& mesh, const std::array<Index, 3>& t) {
+  return latticeRadius(vertex3(mesh, mesh.restPositions, t[0]), vertex3(mesh, mesh.restPositions, t[1]),
+                       vertex3(mesh, mesh.restPositions, t[2]));
+}
+
+double largestRestLatticeRadius(const Mesh& mesh) {
+  double rho = 0.0;
+  for (const Triangle& t : mesh.triangles) rho = std::max(rho, restLatticeRadius(mesh, t));
+  return rho;
+}
+
 std::vector<SurfaceSample> surfaceSamples(const Mesh& mesh, const VectorX& vertexMass, int divisions) {
   std::vector<SurfaceSample> out;
   const int k = divisions;

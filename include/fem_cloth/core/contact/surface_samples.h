@@ -45,6 +45,10 @@ struct SurfaceSample {
 /// rho of the triangle (a, b, c): the largest sum_i lambda_i |p_i - x|^2 over its points x,
 /// square-rooted (m).
 double latticeRadius(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c);
+/// latticeRadius of triangle t (its vertex indices) of the mesh at rest (m).
+double restLatticeRadius(const Mesh& mesh, const std::array<Index, 3>& t);
+/// The largest restLatticeRadius over the mesh's triangles (m).
+double largestRestLatticeRadius(const Mesh& mesh);
 
 /// delta (m): how much a round shape of radius r must grow so that a triangle whose lattice
 /// points are all outside the grown shape, with lattice radius rho, is outside the shape itself.
